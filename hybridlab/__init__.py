@@ -1,0 +1,72 @@
+"""hybridlab: model, simulate and verify hybrid automata.
+
+The public API is re-exported here; submodules are layered
+model -> symbolic -> simulate -> graph -> cli, and lower layers never import
+higher ones.
+"""
+
+from hybridlab.errors import (
+    CompilationError,
+    ExpressionError,
+    HybridlabError,
+    ModelError,
+    SimulationError,
+    ZenoError,
+)
+from hybridlab.graph import mode_graph, to_dot
+from hybridlab.model import (
+    Initial,
+    Mode,
+    Model,
+    Parameter,
+    Scenario,
+    Schedule,
+    State,
+    Transition,
+    dumps_model,
+    load_model,
+    loads_model,
+    model_from_dict,
+    model_json_schema,
+)
+from hybridlab.simulation import (
+    Event,
+    SimulationOptions,
+    SimulationResult,
+    Status,
+    simulate,
+)
+from hybridlab.symbolic import CompiledModel, compile_model
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "CompilationError",
+    "CompiledModel",
+    "Event",
+    "ExpressionError",
+    "HybridlabError",
+    "Initial",
+    "Mode",
+    "Model",
+    "ModelError",
+    "Parameter",
+    "Scenario",
+    "Schedule",
+    "SimulationError",
+    "SimulationOptions",
+    "SimulationResult",
+    "State",
+    "Status",
+    "Transition",
+    "ZenoError",
+    "compile_model",
+    "dumps_model",
+    "load_model",
+    "loads_model",
+    "mode_graph",
+    "model_from_dict",
+    "model_json_schema",
+    "simulate",
+    "to_dot",
+]

@@ -1,0 +1,95 @@
+"""Exception hierarchy.
+
+Every exception hybridlab raises on purpose derives from :class:`HybridlabError`
+and from the built-in that fits it, so ``except ValueError`` keeps working.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "HybridlabError",
+    "ExpressionError",
+    "ModelError",
+    "CompilationError",
+    "SimulationError",
+    "ZenoError",
+]
+
+
+class HybridlabError(Exception):
+    """Base class of every error raised by hybridlab."""
+
+
+class ExpressionError(HybridlabError, ValueError):
+    """An expression text is not in the accepted language.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong, in one sentence.
+    token : str
+        The offending piece of text (a name, an operator, a literal).
+    """
+
+    def __init__(self, message: str, token: str = "") -> None:
+        super().__init__(message)
+        self.message = message
+        self.token = token
+
+    def __str__(self) -> str:
+        return f"{self.message} (token {self.token!r})" if self.token else self.message
+
+
+class ModelError(HybridlabError, ValueError):
+    """A model (file or Python object) is invalid.
+
+    The message is always one line: ``FILE: KEY.PATH: what is wrong (token 'X')``.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong.
+    key : str, optional
+        Dotted key path inside the model, such as ``modes.fall.flow.v``.
+    token : str, optional
+        The offending token.
+    source : str, optional
+        The file the model came from.
+
+    Examples
+    --------
+    >>> str(ModelError("unknown symbol", key="modes.fall.flow.v", token="vv", source="ball.toml"))
+    "ball.toml: modes.fall.flow.v: unknown symbol (token 'vv')"
+    """
+
+    def __init__(
+        self, message: str, *, key: str = "", token: str = "", source: str = ""
+    ) -> None:
+        super().__init__(message)
+        self.message = message
+        self.key = key
+        self.token = token
+        self.source = source
+
+    def with_source(self, source: str) -> ModelError:
+        """Return a copy of this error that names ``source`` as its file."""
+        return ModelError(self.message, key=self.key, token=self.token, source=source)
+
+    def __str__(self) -> str:
+        parts = [p for p in (self.source, self.key) if p]
+        text = " ".join(self.message.split())
+        if self.token:
+            text += f" (token {self.token!r})"
+        return ": ".join([*parts, text])
+
+
+class CompilationError(HybridlabError, ValueError):
+    """A valid model cannot be compiled (for example a singular mass matrix)."""
+
+
+class SimulationError(HybridlabError, RuntimeError):
+    """A simulation cannot proceed and the caller asked for an exception."""
+
+
+class ZenoError(SimulationError):
+    """Raised under ``zeno="error"`` when events accumulate in finite time."""

@@ -1,0 +1,238 @@
+"""Meaning checks of a model, producing its sympy form.
+
+Every expression is parsed here with the whitelist parser; the first problem
+raises :class:`~hybridlab.errors.ModelError` naming the key path and token.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import networkx as nx
+import sympy as sp
+
+from hybridlab.errors import ExpressionError, ModelError
+from hybridlab.model.expressions import (
+    Inequality,
+    check_name,
+    parse_expression,
+    parse_relation,
+)
+
+if TYPE_CHECKING:
+    from hybridlab.model.schema import Model
+
+__all__ = ["SymbolicMode", "SymbolicTransition", "SymbolicModel", "build_symbolic", "TIME"]
+
+#: The reserved time symbol.
+TIME = sp.Symbol("t", real=True)
+
+
+@dataclass(frozen=True)
+class SymbolicMode:
+    """A mode in sympy form: ``flow[i]`` is the derivative of state ``i``."""
+
+    name: str
+    flow: tuple[sp.Expr, ...]
+    invariants: tuple[Inequality, ...]
+
+
+@dataclass(frozen=True)
+class SymbolicTransition:
+    """A transition in sympy form; ``reset[i]`` is the new value of state ``i``."""
+
+    index: int
+    name: str
+    source: str
+    target: str
+    guard: tuple[Inequality, ...]
+    reset: tuple[sp.Expr, ...]
+    priority: int | None
+    period: float | None
+    phase: float
+
+
+@dataclass(frozen=True)
+class SymbolicModel:
+    """The sympy form of a :class:`~hybridlab.model.schema.Model`.
+
+    Definitions are substituted everywhere, so every expression is over
+    states, parameters and ``t`` only.
+    """
+
+    state_names: tuple[str, ...]
+    parameter_names: tuple[str, ...]
+    states: tuple[sp.Symbol, ...]
+    parameters: tuple[sp.Symbol, ...]
+    definitions: Mapping[str, sp.Expr]
+    modes: Mapping[str, SymbolicMode]
+    transitions: tuple[SymbolicTransition, ...]
+
+    @property
+    def time(self) -> sp.Symbol:
+        """The time symbol ``t``."""
+        return TIME
+
+    def namespace(self) -> dict[str, sp.Expr]:
+        """Every name an expression may use, mapped to its sympy form."""
+        names: dict[str, sp.Expr] = {"t": TIME}
+        names.update(zip(self.parameter_names, self.parameters, strict=True))
+        names.update(zip(self.state_names, self.states, strict=True))
+        names.update(self.definitions)
+        return names
+
+
+def _fail(message: str, key: str, token: str = "") -> ModelError:
+    return ModelError(message, key=key, token=token)
+
+
+def _parse(text: str, names: Mapping[str, sp.Expr], key: str) -> sp.Expr:
+    try:
+        return parse_expression(text, names)
+    except ExpressionError as exc:
+        raise _fail(exc.message, key, exc.token) from None
+
+
+def _relations(text: str, names: Mapping[str, sp.Expr], key: str) -> tuple[Inequality, ...]:
+    try:
+        return tuple(parse_relation(text, names))
+    except ExpressionError as exc:
+        raise _fail(exc.message, key, exc.token) from None
+
+
+def _declared_names(model: Model) -> None:
+    seen: dict[str, str] = {}
+    for section in ("parameters", "states", "definitions"):
+        for name in getattr(model, section):
+            try:
+                check_name(name)
+            except ExpressionError as exc:
+                raise _fail(exc.message, f"{section}.{name}", exc.token) from None
+            if name in seen:
+                raise _fail(f"name already declared in [{seen[name]}]", f"{section}.{name}", name)
+            seen[name] = section
+
+
+def _definitions(model: Model, base: dict[str, sp.Expr]) -> dict[str, sp.Expr]:
+    """Parse definitions in dependency order; a cycle is an error."""
+    placeholders = {name: sp.Symbol(f"_def_{name}", real=True) for name in model.definitions}
+    names = {**base, **placeholders}
+    graph = nx.DiGraph()
+    raw: dict[str, sp.Expr] = {}
+    for name, text in model.definitions.items():
+        expr = _parse(text, names, f"definitions.{name}")
+        raw[name] = expr
+        graph.add_node(name)
+        for other, symbol in placeholders.items():
+            if expr.has(symbol):
+                graph.add_edge(other, name)
+    try:
+        cycle = nx.find_cycle(graph)
+    except nx.NetworkXNoCycle:
+        cycle = None
+    if cycle:
+        names_in_cycle = " -> ".join([edge[0] for edge in cycle] + [cycle[0][0]])
+        raise _fail("definitions refer to each other in a cycle", f"definitions.{cycle[0][1]}",
+                    names_in_cycle)
+    resolved: dict[str, sp.Expr] = {}
+    for name in nx.topological_sort(graph):
+        resolved[name] = raw[name].xreplace({placeholders[k]: v for k, v in resolved.items()})
+    return {name: resolved[name] for name in model.definitions}
+
+
+def build_symbolic(model: Model) -> SymbolicModel:
+    """Check the meaning of ``model`` and return its sympy form.
+
+    Raises
+    ------
+    ModelError
+        The first problem found, with key path and token.
+    """
+    _declared_names(model)
+    state_names = tuple(model.states)
+    parameter_names = tuple(model.parameters)
+    states = tuple(sp.Symbol(n, real=True) for n in state_names)
+    parameters = tuple(sp.Symbol(n, real=True) for n in parameter_names)
+    base: dict[str, sp.Expr] = {"t": TIME}
+    base.update(zip(parameter_names, parameters, strict=True))
+    base.update(zip(state_names, states, strict=True))
+    definitions = _definitions(model, base)
+    names = {**base, **definitions}
+    if not state_names:
+        raise _fail("a model needs at least one state", "states")
+    if not model.modes:
+        raise _fail("a model needs at least one mode", "modes")
+
+    modes: dict[str, SymbolicMode] = {}
+    for mode_name, mode in model.modes.items():
+        key = f"modes.{mode_name}"
+        for state in mode.flow:
+            if state not in model.states:
+                raise _fail("flow given for an unknown state", f"{key}.flow.{state}", state)
+        missing = [s for s in state_names if s not in mode.flow]
+        if missing:
+            raise _fail(f"state {missing[0]!r} has no flow in mode {mode_name!r}",
+                        f"{key}.flow", missing[0])
+        flow = tuple(_parse(mode.flow[s], names, f"{key}.flow.{s}") for s in state_names)
+        invariants: list[Inequality] = []
+        for i, text in enumerate(mode.invariant):
+            invariants.extend(_relations(text, names, f"{key}.invariant[{i}]"))
+        modes[mode_name] = SymbolicMode(mode_name, flow, tuple(invariants))
+
+    transitions: list[SymbolicTransition] = []
+    seen_names: set[str] = set()
+    for index, tr in enumerate(model.transitions):
+        key = f"transitions[{index}]"
+        if tr.name in seen_names:
+            raise _fail("transition name used twice", f"{key}.name", tr.name)
+        seen_names.add(tr.name)
+        for role in ("source", "target"):
+            mode_name = getattr(tr, role)
+            if mode_name not in model.modes:
+                raise _fail(f"transition {role} is not a mode", f"{key}.{role}", mode_name)
+        if not tr.guard and tr.schedule is None:
+            raise _fail("a transition needs a guard or a schedule", f"{key}.guard", tr.name)
+        guard: list[Inequality] = []
+        for i, text in enumerate(tr.guard):
+            guard.extend(_relations(text, names, f"{key}.guard[{i}]"))
+        for state in tr.reset:
+            if state not in model.states:
+                raise _fail("reset of an unknown state", f"{key}.reset.{state}", state)
+        reset = tuple(
+            _parse(tr.reset[s], names, f"{key}.reset.{s}") if s in tr.reset else sym
+            for s, sym in zip(state_names, states, strict=True)
+        )
+        transitions.append(SymbolicTransition(
+            index=index, name=tr.name, source=tr.source, target=tr.target,
+            guard=tuple(guard), reset=reset, priority=tr.priority,
+            period=tr.schedule.period if tr.schedule else None,
+            phase=tr.schedule.phase if tr.schedule else 0.0,
+        ))
+
+    if model.initial.mode not in model.modes:
+        raise _fail("initial mode is not a mode", "initial.mode", model.initial.mode)
+    for scenario_name, scenario in model.scenarios.items():
+        key = f"scenarios.{scenario_name}"
+        for p in scenario.parameters:
+            if p not in model.parameters:
+                raise _fail("unknown parameter", f"{key}.parameters.{p}", p)
+        for s in scenario.initial:
+            if s not in model.states:
+                raise _fail("unknown state", f"{key}.initial.{s}", s)
+        if scenario.mode is not None and scenario.mode not in model.modes:
+            raise _fail("scenario mode is not a mode", f"{key}.mode", scenario.mode)
+        if scenario.t_end <= scenario.t_start:
+            raise _fail("t_end must be greater than t_start", f"{key}.t_end",
+                        str(scenario.t_end))
+
+    return SymbolicModel(
+        state_names=state_names,
+        parameter_names=parameter_names,
+        states=states,
+        parameters=parameters,
+        definitions=definitions,
+        modes=modes,
+        transitions=tuple(transitions),
+    )

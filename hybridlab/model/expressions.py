@@ -1,0 +1,332 @@
+"""Whitelisted expression language: Python ``ast`` into sympy, never ``eval``.
+
+Model text is parsed with :func:`ast.parse` and walked node by node; only
+numbers, declared names, ``+ - * / **``, unary minus, comparisons (in
+relations), ``and`` (in relations) and calls of a fixed set of functions
+become sympy objects. Anything else raises :class:`ExpressionError` naming
+the offending token, so no model file can run code.
+"""
+
+from __future__ import annotations
+
+import ast
+import keyword
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+
+import sympy as sp
+
+from hybridlab.errors import ExpressionError
+
+__all__ = [
+    "FUNCTIONS",
+    "CONSTANTS",
+    "RESERVED_NAMES",
+    "MAX_EXPRESSION_LENGTH",
+    "Inequality",
+    "parse_expression",
+    "parse_relation",
+    "check_name",
+]
+
+MAX_EXPRESSION_LENGTH = 10_000
+_MAX_DEPTH = 200
+
+
+def _clip(x: sp.Expr, lo: sp.Expr, hi: sp.Expr) -> sp.Expr:
+    return sp.Min(sp.Max(x, lo), hi)
+
+
+#: name -> (allowed argument counts, sympy builder). ``None`` means two or more.
+FUNCTIONS: Mapping[str, tuple[tuple[int, ...] | None, Callable[..., sp.Expr]]] = {
+    "sin": ((1,), sp.sin),
+    "cos": ((1,), sp.cos),
+    "tan": ((1,), sp.tan),
+    "asin": ((1,), sp.asin),
+    "acos": ((1,), sp.acos),
+    "atan": ((1,), sp.atan),
+    "atan2": ((2,), sp.atan2),
+    "sinh": ((1,), sp.sinh),
+    "cosh": ((1,), sp.cosh),
+    "tanh": ((1,), sp.tanh),
+    "exp": ((1,), sp.exp),
+    "log": ((1,), sp.log),
+    "sqrt": ((1,), sp.sqrt),
+    "abs": ((1,), sp.Abs),
+    "sign": ((1,), sp.sign),
+    "min": (None, sp.Min),
+    "max": (None, sp.Max),
+    "clip": ((3,), _clip),
+}
+
+#: Named constants usable in any expression.
+CONSTANTS: Mapping[str, sp.Expr] = {"pi": sp.pi}
+
+#: Names a model may not declare: functions, constants and the time symbol.
+RESERVED_NAMES = frozenset(FUNCTIONS) | frozenset(CONSTANTS) | {"t"}
+
+_BINARY = {
+    ast.Add: lambda a, b: a + b,
+    ast.Sub: lambda a, b: a - b,
+    ast.Mult: lambda a, b: a * b,
+    ast.Div: lambda a, b: a / b,
+    ast.Pow: lambda a, b: a**b,
+}
+_BINARY_HINT = {
+    ast.BitXor: ("'^' is not a power", "^"),
+    ast.Mod: ("'%' is not supported", "%"),
+    ast.FloorDiv: ("'//' is not supported", "//"),
+    ast.MatMult: ("'@' is not supported", "@"),
+    ast.BitAnd: ("'&' is not supported; combine inequalities with 'and'", "&"),
+    ast.BitOr: ("'|' is not supported", "|"),
+    ast.LShift: ("'<<' is not supported", "<<"),
+    ast.RShift: ("'>>' is not supported", ">>"),
+}
+_COMPARE = {ast.Lt: "<", ast.LtE: "<=", ast.Gt: ">", ast.GtE: ">="}
+_COMPARE_REJECTED = {ast.Eq: "==", ast.NotEq: "!=", ast.Is: "is", ast.IsNot: "is not",
+                     ast.In: "in", ast.NotIn: "not in"}
+
+
+@dataclass(frozen=True)
+class Inequality:
+    """One inequality normalised to ``expr >= 0`` (or ``> 0`` when strict).
+
+    Attributes
+    ----------
+    expr : sympy.Expr
+        The left side minus the right side, signed so that the relation holds
+        when ``expr`` is non-negative.
+    strict : bool
+        ``True`` for ``<`` and ``>``.
+    text : str
+        The source text of this inequality.
+
+    Examples
+    --------
+    >>> h = sp.Symbol("h", real=True)
+    >>> [rel] = parse_relation("h <= 0", {"h": h})
+    >>> rel.expr
+    -h
+    """
+
+    expr: sp.Expr
+    strict: bool
+    text: str
+
+
+def check_name(name: str) -> None:
+    """Raise :class:`ExpressionError` unless ``name`` may be declared in a model.
+
+    Examples
+    --------
+    >>> check_name("m_C")
+    >>> check_name("sin")
+    Traceback (most recent call last):
+    ...
+    hybridlab.errors.ExpressionError: name shadows a built-in function or constant (token 'sin')
+    """
+    if not isinstance(name, str) or not name.isidentifier() or keyword.iskeyword(name):
+        raise ExpressionError("not a valid name (letters, digits and '_', not a keyword)", str(name))
+    if name.startswith("_"):
+        raise ExpressionError("names may not start with '_'", name)
+    if name in RESERVED_NAMES:
+        kind = "the time symbol" if name == "t" else "a built-in function or constant"
+        raise ExpressionError(f"name shadows {kind}", name)
+
+
+def _parse_tree(text: str) -> ast.expr:
+    if not isinstance(text, str):
+        raise ExpressionError("expression must be a string", repr(text)[:40])
+    if len(text) > MAX_EXPRESSION_LENGTH:
+        raise ExpressionError(f"expression longer than {MAX_EXPRESSION_LENGTH} characters",
+                              text[:20] + "...")
+    if not text.strip():
+        raise ExpressionError("empty expression", text)
+    try:
+        tree = ast.parse(text.strip(), mode="eval")
+    except SyntaxError as exc:
+        token = (exc.text or text).strip()
+        if exc.offset:
+            token = (exc.text or "")[max(exc.offset - 1, 0):].strip()[:20] or token
+        raise ExpressionError(f"syntax error: {exc.msg}", token[:40]) from None
+    except (ValueError, RecursionError, MemoryError):
+        raise ExpressionError("expression cannot be parsed", text[:40]) from None
+    return tree.body
+
+
+class _Builder:
+    """Turns an ``ast`` expression into sympy, refusing every other node."""
+
+    def __init__(self, text: str, symbols: Mapping[str, sp.Expr]) -> None:
+        self.text = text
+        self.symbols = symbols
+
+    def token(self, node: ast.AST) -> str:
+        segment = ast.get_source_segment(self.text.strip(), node)
+        return (segment or type(node).__name__)[:40]
+
+    def expr(self, node: ast.AST, depth: int = 0) -> sp.Expr:
+        if depth > _MAX_DEPTH:
+            raise ExpressionError("expression nested too deeply", self.token(node))
+        if isinstance(node, ast.Constant):
+            value = node.value
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise ExpressionError("only numbers are allowed as literals", self.token(node))
+            if isinstance(value, float) and not math.isfinite(value):
+                raise ExpressionError("number is not finite", self.token(node))
+            return sp.Integer(value) if isinstance(value, int) else sp.Float(value)
+        if isinstance(node, ast.Name):
+            if node.id in self.symbols:
+                return self.symbols[node.id]
+            if node.id in CONSTANTS:
+                return CONSTANTS[node.id]
+            if node.id in FUNCTIONS:
+                raise ExpressionError("function used without arguments", node.id)
+            raise ExpressionError("unknown symbol", node.id)
+        if isinstance(node, ast.BinOp):
+            op = type(node.op)
+            if op in _BINARY_HINT:
+                message, tok = _BINARY_HINT[op]
+                if op is ast.BitXor:
+                    message += "; use '**'"
+                raise ExpressionError(message, tok)
+            left = self.expr(node.left, depth + 1)
+            right = self.expr(node.right, depth + 1)
+            if op is ast.Div and right == 0:
+                raise ExpressionError("division by zero", self.token(node))
+            try:
+                return _BINARY[op](left, right)
+            except (ZeroDivisionError, OverflowError, ValueError, TypeError):
+                raise ExpressionError("arithmetic on literals failed", self.token(node)) from None
+        if isinstance(node, ast.UnaryOp):
+            operand = self.expr(node.operand, depth + 1)
+            if isinstance(node.op, ast.USub):
+                return -operand
+            if isinstance(node.op, ast.UAdd):
+                return operand
+            raise ExpressionError("operator not allowed", self.token(node)[:1])
+        if isinstance(node, ast.Call):
+            return self.call(node, depth)
+        if isinstance(node, ast.Compare | ast.BoolOp):
+            raise ExpressionError("a comparison is not allowed here; an expression is expected",
+                                  self.token(node))
+        if isinstance(node, ast.Attribute):
+            raise ExpressionError("attribute access is not allowed", node.attr)
+        if isinstance(node, ast.Subscript):
+            raise ExpressionError("indexing is not allowed", self.token(node))
+        if isinstance(node, ast.IfExp):
+            raise ExpressionError("conditional expressions are not allowed; use min/max/sign or "
+                                  "modes", self.token(node))
+        raise ExpressionError(f"{type(node).__name__} is not allowed in an expression",
+                              self.token(node))
+
+    def call(self, node: ast.Call, depth: int) -> sp.Expr:
+        if not isinstance(node.func, ast.Name):
+            raise ExpressionError("only the built-in functions can be called",
+                                  self.token(node.func))
+        name = node.func.id
+        if name not in FUNCTIONS:
+            raise ExpressionError("unknown function", name)
+        if node.keywords:
+            raise ExpressionError("keyword arguments are not allowed", name)
+        if any(isinstance(a, ast.Starred) for a in node.args):
+            raise ExpressionError("starred arguments are not allowed", name)
+        arities, builder = FUNCTIONS[name]
+        n = len(node.args)
+        if (arities is None and n < 2) or (arities is not None and n not in arities):
+            expected = "at least 2" if arities is None else " or ".join(map(str, arities))
+            raise ExpressionError(f"{name}() takes {expected} argument(s), got {n}", name)
+        args = [self.expr(a, depth + 1) for a in node.args]
+        try:
+            return builder(*args)
+        except (ValueError, TypeError, ZeroDivisionError, OverflowError):
+            raise ExpressionError(f"{name}() cannot be applied to these arguments",
+                                  self.token(node)) from None
+
+    def relations(self, node: ast.AST) -> list[Inequality]:
+        if isinstance(node, ast.BoolOp):
+            if not isinstance(node.op, ast.And):
+                raise ExpressionError("'or' is not supported; use one transition per alternative",
+                                      "or")
+            out: list[Inequality] = []
+            for value in node.values:
+                out.extend(self.relations(value))
+            return out
+        if not isinstance(node, ast.Compare):
+            raise ExpressionError("an inequality such as 'x >= 0' is expected", self.token(node))
+        operands = [node.left, *node.comparators]
+        out = []
+        for op, left, right in zip(node.ops, operands, operands[1:], strict=False):
+            if type(op) in _COMPARE_REJECTED:
+                raise ExpressionError("only inequalities (<, <=, >, >=) are allowed",
+                                      _COMPARE_REJECTED[type(op)])
+            lhs = self.expr(left, 1)
+            rhs = self.expr(right, 1)
+            symbol = _COMPARE[type(op)]
+            diff = rhs - lhs if symbol in ("<", "<=") else lhs - rhs
+            text = f"{self.token(left)} {symbol} {self.token(right)}"
+            out.append(Inequality(sp.expand(diff) if diff.is_polynomial() else diff,
+                                  symbol in ("<", ">"), text))
+        return out
+
+
+def parse_expression(text: str, symbols: Mapping[str, sp.Expr]) -> sp.Expr:
+    """Parse ``text`` into a sympy expression over the given ``symbols``.
+
+    Parameters
+    ----------
+    text : str
+        The expression, e.g. ``"-e*v"``.
+    symbols : mapping of str to sympy.Expr
+        Every name the expression may use (states, parameters, definitions,
+        ``t``). A definition may map to a whole expression.
+
+    Returns
+    -------
+    sympy.Expr
+
+    Raises
+    ------
+    ExpressionError
+        For any text outside the whitelist, naming the offending token.
+
+    Examples
+    --------
+    >>> v, e = sp.symbols("v e", real=True)
+    >>> parse_expression("-e*v", {"v": v, "e": e})
+    -e*v
+    >>> parse_expression("__import__('os').system('touch /tmp/x')", {})
+    Traceback (most recent call last):
+    ...
+    hybridlab.errors.ExpressionError: only the built-in functions can be called (token "__import__('os').system")
+    """
+    return _Builder(text, symbols).expr(_parse_tree(text))
+
+
+def parse_relation(text: str, symbols: Mapping[str, sp.Expr]) -> list[Inequality]:
+    """Parse a conjunction of inequalities (``"x >= 0 and v < 0"``, ``"0 <= x <= 1"``).
+
+    Parameters
+    ----------
+    text : str
+        The relation text.
+    symbols : mapping of str to sympy.Expr
+        Names it may use.
+
+    Returns
+    -------
+    list of Inequality
+        All must hold; each is normalised to ``expr >= 0``.
+
+    Examples
+    --------
+    >>> x = sp.Symbol("x", real=True)
+    >>> [r.expr for r in parse_relation("0 <= x <= 1", {"x": x})]
+    [x, 1 - x]
+    >>> parse_relation("x == 1", {"x": x})
+    Traceback (most recent call last):
+    ...
+    hybridlab.errors.ExpressionError: only inequalities (<, <=, >, >=) are allowed (token '==')
+    """
+    return _Builder(text, symbols).relations(_parse_tree(text))

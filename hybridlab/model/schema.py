@@ -1,0 +1,229 @@
+"""Declarative model objects: frozen pydantic v2 models that reject unknown keys.
+
+A model file is a serialisation of :class:`Model`; the same object can be
+built from Python. Structure is validated by pydantic; meaning (symbols,
+references, relations) by :mod:`hybridlab.model.checks`, which runs as the
+last validation step, so an invalid model object cannot exist.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    model_validator,
+)
+
+__all__ = [
+    "Parameter",
+    "State",
+    "Mode",
+    "Schedule",
+    "Transition",
+    "Initial",
+    "Scenario",
+    "Model",
+]
+
+
+class _Frozen(BaseModel):
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False,
+                              validate_default=True)
+
+    def updated_copy(self, **changes: Any) -> Any:
+        """Return a validated copy with ``changes`` applied (models are immutable)."""
+        data = self.model_dump(round_trip=True)
+        data.update(changes)
+        return type(self).model_validate(data)
+
+
+def _number_as(key: str) -> BeforeValidator:
+    """Accept the TOML shorthand ``g = 9.81`` for ``g = { value = 9.81 }``."""
+
+    def convert(value: Any) -> Any:
+        if isinstance(value, int | float) and not isinstance(value, bool):
+            return {key: value}
+        return value
+
+    return BeforeValidator(convert)
+
+
+def _one_as_list(value: Any) -> Any:
+    return [value] if isinstance(value, str) else value
+
+
+Expression = Annotated[str, Field(min_length=1, max_length=10_000)]
+Relations = Annotated[list[Expression], BeforeValidator(_one_as_list)]
+
+
+class Parameter(_Frozen):
+    """A named constant of the model; scenarios and calls may override it.
+
+    Examples
+    --------
+    >>> Parameter(value=0.8, unit="1", description="coefficient of restitution").value
+    0.8
+    """
+
+    value: float
+    unit: str = "1"
+    description: str = ""
+
+
+class State(_Frozen):
+    """A continuous state with its initial value.
+
+    Examples
+    --------
+    >>> State(initial=10.0, unit="m").initial
+    10.0
+    """
+
+    initial: float
+    unit: str = "1"
+    description: str = ""
+
+
+class Mode(_Frozen):
+    """A discrete mode: a flow expression for every state, and invariants.
+
+    Examples
+    --------
+    >>> Mode(flow={"h": "v", "v": "-g"}, invariant="h >= 0").invariant
+    ['h >= 0']
+    """
+
+    flow: dict[str, Expression]
+    invariant: Relations = Field(default_factory=list)
+    description: str = ""
+
+
+class Schedule(_Frozen):
+    """Time-scheduled firing: at ``phase + k * period`` for k = 0, 1, 2, ...
+
+    Examples
+    --------
+    >>> Schedule(period=0.001).phase
+    0.0
+    """
+
+    period: Annotated[float, Field(gt=0)]
+    phase: float = 0.0
+
+
+class Transition(_Frozen):
+    """A discrete jump from ``source`` to ``target``.
+
+    A transition fires at the first instant its guard (all inequalities)
+    holds; a scheduled transition fires at its scheduled instants, when its
+    guard (if any) holds. Among transitions enabled at the same instant the
+    lowest ``priority`` number fires first; transitions without a priority
+    come after all numbered ones, in declaration order.
+
+    Examples
+    --------
+    >>> Transition(name="bounce", source="fall", target="fall", guard="h <= 0",
+    ...            reset={"v": "-e*v"}, priority=1).guard
+    ['h <= 0']
+    """
+
+    name: Annotated[str, Field(min_length=1)]
+    source: str
+    target: str
+    guard: Relations = Field(default_factory=list)
+    reset: dict[str, Expression] = Field(default_factory=dict)
+    priority: int | None = None
+    schedule: Schedule | None = None
+    description: str = ""
+
+
+class Initial(_Frozen):
+    """The initial discrete mode (initial state values live with the states)."""
+
+    mode: str
+
+
+class Scenario(_Frozen):
+    """A named run: horizon, parameter and initial-value overrides, solver settings.
+
+    Examples
+    --------
+    >>> Scenario(t_end=10.0, parameters={"e": 0.5}).parameters
+    {'e': 0.5}
+    """
+
+    t_end: float
+    t_start: float = 0.0
+    parameters: dict[str, float] = Field(default_factory=dict)
+    initial: dict[str, float] = Field(default_factory=dict)
+    mode: str | None = None
+    method: str | None = None
+    rtol: Annotated[float, Field(gt=0)] | None = None
+    atol: Annotated[float, Field(gt=0)] | None = None
+    max_step: Annotated[float, Field(gt=0)] | None = None
+    description: str = ""
+
+
+ParameterField = Annotated[Parameter, _number_as("value")]
+StateField = Annotated[State, _number_as("initial")]
+
+
+class Model(_Frozen):
+    """A hybrid automaton.
+
+    Build it from a TOML file with :func:`hybridlab.load_model` or directly:
+
+    Examples
+    --------
+    >>> ball = Model(
+    ...     name="ball",
+    ...     parameters={"g": 9.81, "e": 0.8},
+    ...     states={"h": 10.0, "v": 0.0},
+    ...     modes={"fall": Mode(flow={"h": "v", "v": "-g"}, invariant=["h >= 0"])},
+    ...     transitions=[Transition(name="bounce", source="fall", target="fall",
+    ...                             guard="h <= 0", reset={"v": "-e*v"})],
+    ...     initial=Initial(mode="fall"),
+    ... )
+    >>> ball.state_names
+    ('h', 'v')
+    """
+
+    name: Annotated[str, Field(min_length=1)]
+    description: str = ""
+    parameters: dict[str, ParameterField] = Field(default_factory=dict)
+    states: dict[str, StateField]
+    definitions: dict[str, Expression] = Field(default_factory=dict)
+    modes: dict[str, Mode]
+    transitions: list[Transition] = Field(default_factory=list)
+    initial: Initial
+    scenarios: dict[str, Scenario] = Field(default_factory=dict)
+
+    _symbolic: Any = PrivateAttr(default=None)
+    _compiled: Any = PrivateAttr(default=None)
+
+    @model_validator(mode="after")
+    def _check_meaning(self) -> Model:
+        from hybridlab.model.checks import build_symbolic
+
+        self._symbolic = build_symbolic(self)
+        return self
+
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        """State names in declaration order (the order of state vectors)."""
+        return tuple(self.states)
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        """Parameter names in declaration order (the order of parameter vectors)."""
+        return tuple(self.parameters)
+
+    @property
+    def symbolic(self) -> Any:
+        """The parsed sympy form (:class:`hybridlab.model.checks.SymbolicModel`)."""
+        return self._symbolic

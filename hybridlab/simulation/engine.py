@@ -1,0 +1,486 @@
+"""The reference simulation engine: scipy steppers driven one step at a time.
+
+Semantics are specified in ``docs/semantics.md``; in short:
+
+* transitions are urgent: one fires at the first instant its guard holds;
+  event times are located on the dense output of each step;
+* every guard, invariant and switching function is a *monitor* examined at
+  adaptively refined interior points of each step (see
+  :mod:`hybridlab.simulation.location`), so crossings in pairs are not missed;
+* at an event instant the enabled transition with the best priority fires,
+  then the guards are evaluated again in the new state (event iteration),
+  at most ``max_event_iterations`` times;
+* a transition that just fired cannot fire again at the same instant, and a
+  guard that holds only on its boundary while the flow leaves it is not taken;
+* discontinuities of a flow (sign, abs, min, max) are switching surfaces with
+  Filippov sliding; scheduled transitions fire at exact times.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import integrate
+
+from hybridlab.errors import SimulationError, ZenoError
+from hybridlab.simulation.location import Trigger, first_trigger, sample_step
+from hybridlab.simulation.options import SimulationOptions
+from hybridlab.simulation.result import Event, FinalState, Segment, SimulationResult, Status
+from hybridlab.simulation.sliding import equivalent_sigma, equivalent_sigma_batch, resolve_switches
+from hybridlab.simulation.zeno import ZenoTracker
+from hybridlab.symbolic.compile import CompiledMode, CompiledModel, CompiledTransition
+
+__all__ = ["run"]
+
+_SOLVERS = {
+    "RK45": integrate.RK45, "RK23": integrate.RK23, "DOP853": integrate.DOP853,
+    "Radau": integrate.Radau, "BDF": integrate.BDF, "LSODA": integrate.LSODA,
+}
+_NO_SIGMA = np.empty(0)
+
+
+@dataclass(frozen=True)
+class _Monitor:
+    """What a monitor row watches: a guard, an invariant, a switch or a sliding exit."""
+
+    kind: str
+    ref: int
+
+
+@dataclass
+class _Stop(Exception):
+    status: Status
+    message: str
+    zeno_time: float | None = None
+
+
+@dataclass
+class _Pieces:
+    """The growing segment: stored points and one interpolant per step."""
+
+    mode: str
+    j: int
+    t: list[float] = field(default_factory=list)
+    y: list[np.ndarray] = field(default_factory=list)
+    dense: list[object] = field(default_factory=list)
+
+    def freeze(self) -> Segment:
+        return Segment(self.mode, self.j, np.asarray(self.t, dtype=float),
+                       np.column_stack(self.y), tuple(self.dense))
+
+
+class _Run:
+    def __init__(self, compiled: CompiledModel, p: np.ndarray, options: SimulationOptions,
+                 t_end: float) -> None:
+        self.c = compiled
+        self.p = p
+        self.o = options
+        self.t_end = t_end
+        self.names = compiled.state_names
+        self.events: list[Event] = []
+        self.segments: list[Segment] = []
+        self.j = 0
+        self.sigma = _NO_SIGMA
+        self.sliding: tuple[int, ...] = ()
+        self.sched_done: dict[int, int] = {}
+        self.h_last: float | None = None
+        self.zeno = ZenoTracker(options.zeno_window, options.zeno_tol, 4 * options.event_tol)
+        self.stats = {"steps": 0, "rejected_scans": 0, "refinements": 0, "events_located": 0,
+                      "segments": 0}
+
+    # ----- small helpers -------------------------------------------------------------------
+    def xtol(self, t: float) -> float:
+        return self.o.event_tol * max(1.0, abs(t))
+
+    def state_map(self, x: np.ndarray) -> dict[str, float]:
+        return {n: float(v) for n, v in zip(self.names, x, strict=True)}
+
+    def log(self, t: float, transition: str, source: str, target: str, pre: np.ndarray,
+            post: np.ndarray, kind: str, grazing: bool = False) -> None:
+        self.events.append(Event(float(t), self.j, transition, source, target,
+                                 self.state_map(pre), self.state_map(post), kind, grazing))
+        if len(self.events) >= self.o.max_events:
+            raise _Stop(Status.MAX_EVENTS, f"{len(self.events)} events logged by t = {t!r}")
+
+    # ----- sign bookkeeping of discontinuous flows -----------------------------------------
+    def enter_mode(self, mode: CompiledMode, t: float, x: np.ndarray) -> None:
+        """Fresh signs for a mode's switches at (t, x)."""
+        m = len(mode.switches)
+        self.sliding = ()
+        if m == 0:
+            self.sigma = _NO_SIGMA
+            return
+        sigma = np.ones(m)
+        s = mode.switch_fields.values(t, x, self.p, sigma)
+        tiny = [k for k in range(m) if abs(s[k]) <= self.o.event_atol]
+        sigma = np.where(s >= 0, 1.0, -1.0)
+        self.sigma, self.sliding = resolve_switches(mode, t, x, self.p, sigma, tiny)
+
+    def sigma_at(self, mode: CompiledMode, t: float, x: np.ndarray) -> np.ndarray:
+        if not self.sliding:
+            return self.sigma
+        sigma = self.sigma.copy()
+        sigma[list(self.sliding)] = equivalent_sigma(mode, t, x, self.p, sigma, self.sliding)
+        return sigma
+
+    # ----- scheduled transitions -----------------------------------------------------------
+    def _sched_index(self, tr: CompiledTransition, t: float) -> int:
+        assert tr.period is not None  # noqa: S101 - callers pass scheduled transitions only
+        k = math.ceil((t - tr.phase) / tr.period - 1e-9)
+        return max(k, self.sched_done.get(tr.index, -1) + 1, 0)
+
+    def next_scheduled(self, mode: CompiledMode, t: float) -> float:
+        times = [tr.phase + self._sched_index(tr, t) * tr.period
+                 for tr in mode.outgoing if tr.period is not None]
+        return min(times, default=math.inf)
+
+    def due(self, tr: CompiledTransition, t: float) -> bool:
+        k = self._sched_index(tr, t)
+        return abs(tr.phase + k * tr.period - t) <= 2 * self.xtol(t)
+
+    # ----- guards at an instant ------------------------------------------------------------
+    def guard_state(self, tr: CompiledTransition, mode: CompiledMode, t: float,
+                    x: np.ndarray) -> tuple[float, float]:
+        """Guard value G = min_i g_i (holds when G >= 0) and its time derivative."""
+        assert tr.guard is not None  # noqa: S101
+        g = tr.guard.values(t, x, self.p, _NO_SIGMA)
+        f = mode.flow(t, x, self.p, self.sigma_at(mode, t, x))
+        dg = tr.guard.derivative(t, x, self.p, _NO_SIGMA, f)
+        i = int(np.argmin(g))
+        return float(g[i]), float(dg[i])
+
+    def enabled(self, tr: CompiledTransition, mode: CompiledMode, t: float, x: np.ndarray,
+                fresh: set[int], fired_now: set[int]) -> bool:
+        if tr.period is not None:
+            if not self.due(tr, t):
+                return False
+            return tr.guard is None or self.guard_state(tr, mode, t, x)[0] >= 0
+        if tr.index in fresh:
+            return True
+        if tr.index in fired_now:
+            return False  # no re-triggering right after its own reset
+        value, slope = self.guard_state(tr, mode, t, x)
+        band = 8 * self.xtol(t) * abs(slope) + self.o.event_atol
+        if value < -band:
+            return False
+        return not (value <= band and slope < 0)  # touching the boundary while leaving
+
+    def event_iteration(self, mode: CompiledMode, t: float, x: np.ndarray,
+                        fresh: set[int], grazing: set[int]) -> tuple[CompiledMode, np.ndarray,
+                                                                     set[int]]:
+        """Fire enabled transitions at instant ``t`` until none is enabled."""
+        fired_now: set[int] = set()
+        for _ in range(self.o.max_event_iterations):
+            chosen = next((tr for tr in mode.outgoing
+                           if self.enabled(tr, mode, t, x, fresh, fired_now)), None)
+            if chosen is None:
+                break
+            pre = x
+            x = chosen.reset(t, pre, self.p, _NO_SIGMA)
+            if not np.all(np.isfinite(x)):
+                raise _Stop(Status.SOLVER_FAILED,
+                            f"reset of transition {chosen.name!r} at t = {t!r} gave a "
+                            f"non-finite state {self.state_map(x)}")
+            self.j += 1
+            target = self.c.modes[chosen.target]
+            self.log(t, chosen.name, mode.name, target.name, pre, x, "jump",
+                     chosen.index in grazing)
+            fired_now.add(chosen.index)
+            if chosen.period is not None:
+                self.sched_done[chosen.index] = self._sched_index(chosen, t)
+            else:
+                verdict = self.zeno.record(chosen.name, t)
+                if verdict is not None:
+                    self.finish_zeno(verdict.describe(), verdict.accumulation_time, t, x, target)
+            mode = target
+            self.enter_mode(mode, t, x)
+            fresh = set()
+        else:
+            names = sorted({self.events[-k].transition
+                            for k in range(1, min(len(self.events), 10) + 1)})
+            self.finish_zeno(f"{self.o.max_event_iterations} jumps at the same instant t = {t!r} "
+                             f"(a zero-dwell cycle through {', '.join(names)})", t, t, x, mode)
+        for tr in mode.outgoing:  # scheduled instants that passed without firing are consumed
+            if tr.period is not None and self.due(tr, t) and tr.index not in fired_now:
+                self.sched_done[tr.index] = self._sched_index(tr, t)
+        return mode, x, fired_now
+
+    def finish_zeno(self, text: str, t_acc: float, t: float, x: np.ndarray,
+                    mode: CompiledMode) -> None:
+        self.last = (t, x, mode)
+        if self.o.zeno == "error":
+            raise ZenoError(f"Zeno behaviour: {text}")
+        raise _Stop(Status.ZENO, text, t_acc)
+
+    # ----- monitors ------------------------------------------------------------------------
+    def monitors(self, mode: CompiledMode) -> list[_Monitor]:
+        rows = [_Monitor("guard", tr.index) for tr in mode.outgoing
+                if tr.period is None and tr.guard is not None]
+        rows += [_Monitor("invariant", k) for k in range(mode.invariants.size)]
+        rows += [_Monitor("exit" if k in self.sliding else "switch", k)
+                 for k in range(len(mode.switches))]
+        return rows
+
+    def monitor_batch(self, mode: CompiledMode, rows: list[_Monitor], tau: np.ndarray,
+                      x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        p = self.p
+        sigma = self.sigma
+        eq = None
+        if self.sliding:
+            eq = equivalent_sigma_batch(mode, tau, x, p, sigma, self.sliding)
+            sig_k = np.repeat(sigma[:, None], tau.size, axis=1)
+            sig_k[list(self.sliding)] = eq
+            f = np.column_stack([mode.flow(tau[i], x[:, i], p, sig_k[:, i])
+                                 for i in range(tau.size)])
+        else:
+            f = mode.flow.batch(tau, x, p, sigma)
+        phi = np.empty((len(rows), tau.size))
+        dphi = np.empty_like(phi)
+        inv = sw = None
+        for r, row in enumerate(rows):
+            if row.kind == "guard":
+                tr = self.c.transitions[row.ref]
+                g = tr.guard.values.batch(tau, x, p, _NO_SIGMA)
+                dg = tr.guard.batch_derivative(tau, x, p, _NO_SIGMA, f)
+                i = np.argmin(g, axis=0)
+                cols = np.arange(tau.size)
+                phi[r], dphi[r] = -g[i, cols], -dg[i, cols]
+            elif row.kind == "invariant":
+                if inv is None:
+                    inv = (mode.invariants.values.batch(tau, x, p, _NO_SIGMA),
+                           mode.invariants.batch_derivative(tau, x, p, _NO_SIGMA, f))
+                phi[r], dphi[r] = inv[0][row.ref], inv[1][row.ref]
+            elif row.kind == "switch":
+                if sw is None:
+                    sw = (mode.switch_fields.values.batch(tau, x, p, sigma),
+                          mode.switch_fields.batch_derivative(tau, x, p, sigma, f))
+                phi[r] = sigma[row.ref] * sw[0][row.ref]
+                dphi[r] = sigma[row.ref] * sw[1][row.ref]
+            else:  # sliding exit: |sigma_eq| reaching 1
+                value = 1.0 - np.abs(eq[self.sliding.index(row.ref)])
+                phi[r] = value
+                dphi[r] = np.gradient(value, tau) if tau.size > 1 else 0.0
+        return phi, dphi
+
+    def scan(self, mode: CompiledMode, rows: list[_Monitor], armed: np.ndarray,
+             floors: list[float | None], dense, t0: float,
+             t1: float) -> tuple[list[Trigger], np.ndarray]:
+        if not rows:
+            return [], armed
+
+        def batch(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            return self.monitor_batch(mode, rows, tau, dense(tau))
+
+        tau, phi, dphi, refinements = sample_step(t0, t1, batch, self.o.samples_per_step,
+                                                  self.o.max_refine, self.o.event_atol)
+        self.stats["refinements"] += refinements
+        xtol = self.xtol(t1)
+        triggers: list[Trigger] = []
+        new_armed = armed.copy()
+        for r in range(len(rows)):
+            def value(t: float, r: int = r) -> float:
+                return float(batch(np.array([t]))[0][r, 0])
+
+            trig, new_armed[r] = first_trigger(r, tau, phi[r], dphi[r], bool(armed[r]), value,
+                                               xtol, self.o.event_atol, floors[r])
+            if trig is not None:
+                triggers.append(trig)
+        if not triggers:
+            return [], new_armed
+        first = min(tr.t for tr in triggers)
+        cluster = [tr for tr in triggers if tr.t <= first + 8 * xtol]
+        self.stats["events_located"] += len(cluster)
+        return cluster, new_armed
+
+    @staticmethod
+    def floors(rows: list[_Monitor], phi0: np.ndarray, dphi0: np.ndarray, band: np.ndarray,
+               armed: np.ndarray) -> list[float | None]:
+        """Safety floors of monitors that start on their boundary.
+
+        Such a monitor must rise before it can fire; if instead it sinks below
+        its start by more than the event tolerance, it fires anyway, so a state
+        never passes through a boundary unnoticed. A guard that holds and keeps
+        holding (it just fired and must first become false) has no floor.
+        """
+        out: list[float | None] = []
+        for r, row in enumerate(rows):
+            if armed[r] or (row.kind == "guard" and dphi0[r] <= 0):
+                out.append(None)
+            else:
+                out.append(min(float(phi0[r]), 0.0) - float(band[r]))
+        return out
+
+    # ----- one flow segment ----------------------------------------------------------------
+    def flow(self, mode: CompiledMode, t: float, x: np.ndarray,
+             t_stop: float) -> tuple[float, np.ndarray, list[Trigger], list[_Monitor]]:
+        p = self.p
+        pieces = _Pieces(mode.name, self.j, [t], [x.copy()])
+        rows = self.monitors(mode)
+        if rows:
+            phi0, dphi0 = self.monitor_batch(mode, rows, np.array([t]), x[:, None])
+            armed = phi0[:, 0] > self.o.event_atol
+            # the state of an event is known to within the event-time tolerance
+            band = 16 * self.xtol(t) * np.abs(dphi0[:, 0]) + self.o.event_atol
+            floors = self.floors(rows, phi0[:, 0], dphi0[:, 0], band, armed)
+            for r, row in enumerate(rows):
+                if row.kind == "invariant" and phi0[r, 0] < -band[r]:
+                    self.segments.append(pieces.freeze())
+                    raise _Stop(Status.INVARIANT_VIOLATED,
+                                f"mode {mode.name!r} entered at t = {t!r} outside its invariant "
+                                f"{mode.invariant_texts[row.ref]!r} (state {self.state_map(x)})")
+        else:
+            armed, floors = np.zeros(0, dtype=bool), []
+        sigma = self.sigma
+        if self.sliding:
+            def rhs(tt: float, y: np.ndarray) -> np.ndarray:
+                return mode.flow(tt, y, p, self.sigma_at(mode, tt, y))
+            jac = None
+        else:
+            def rhs(tt: float, y: np.ndarray) -> np.ndarray:
+                return mode.flow(tt, y, p, sigma)
+
+            def jac(tt: float, y: np.ndarray) -> np.ndarray:
+                return mode.jacobian(tt, y, p, sigma)
+        kwargs = {"rtol": self.o.rtol, "atol": self.o.atol, "max_step": self.o.max_step}
+        if self.o.stiff and jac is not None:
+            kwargs["jac"] = jac
+        if self.h_last is not None:
+            kwargs["first_step"] = min(self.h_last, t_stop - t)
+        solver = _SOLVERS[self.o.method](rhs, t, x, t_stop, **kwargs)
+        triggers: list[Trigger] = []
+        while True:
+            message = solver.step()
+            self.stats["steps"] += 1
+            if solver.status == "failed":
+                self.segments.append(pieces.freeze())
+                raise _Stop(Status.SOLVER_FAILED,
+                            f"{self.o.method} failed at t = {solver.t!r} in mode {mode.name!r}: "
+                            f"{message}")
+            t_old, t_new = float(solver.t_old), float(solver.t)
+            self.h_last = t_new - t_old
+            dense = solver.dense_output()
+            triggers, armed = self.scan(mode, rows, armed, floors, dense, t_old, t_new)
+            floors = [None if a else f for a, f in zip(armed, floors, strict=True)]
+            if triggers:
+                t_event = min(tr.t for tr in triggers)
+                x_event = dense(t_event)
+                pieces.t.append(t_event)
+                pieces.y.append(x_event)
+                pieces.dense.append(dense)
+                t, x = t_event, x_event
+                break
+            pieces.t.append(t_new)
+            pieces.y.append(solver.y.copy())
+            pieces.dense.append(dense)
+            t, x = t_new, solver.y.copy()
+            if solver.status == "finished":
+                break
+        self.segments.append(pieces.freeze())
+        self.stats["segments"] += 1
+        return t, x, triggers, rows
+
+    # ----- events in flow ------------------------------------------------------------------
+    def handle(self, mode: CompiledMode, t: float, x: np.ndarray, triggers: list[Trigger],
+               rows: list[_Monitor]) -> tuple[CompiledMode, np.ndarray]:
+        hit = [rows[tr.monitor] for tr in triggers]
+        grazing = {rows[tr.monitor].ref for tr in triggers
+                   if tr.grazing and rows[tr.monitor].kind == "guard"}
+        switches = {m.ref for m in hit if m.kind == "switch"}
+        exits = {m.ref for m in hit if m.kind == "exit"}
+        if switches or exits:
+            self.update_switches(mode, t, x, switches, exits)
+        fresh = {m.ref for m in hit if m.kind == "guard"}
+        j_before = self.j
+        new_mode, x_new, fired = self.event_iteration(mode, t, x, fresh, grazing)
+        if self.j == j_before:
+            for m in hit:
+                if m.kind == "invariant":
+                    self.check_invariant(mode, t, x, m.ref)
+        return new_mode, x_new
+
+    def update_switches(self, mode: CompiledMode, t: float, x: np.ndarray, switches: set[int],
+                        exits: set[int]) -> None:
+        old_sigma, old_sliding = self.sigma_at(mode, t, x), self.sliding
+        forced = {k: float(np.sign(old_sigma[k])) for k in exits}
+        at_surface = switches | (set(old_sliding) - exits)
+        sigma, sliding = resolve_switches(mode, t, x, self.p, self.sigma.copy(), at_surface,
+                                          forced)
+        self.sigma, self.sliding = sigma, sliding
+        for k in sorted(switches | exits):
+            text = mode.switches[k].text
+            if k in sliding and k not in old_sliding:
+                kind = "slide_start"
+            elif k in old_sliding and k not in sliding:
+                kind = "slide_end"
+            else:
+                kind = "crossing"
+            self.log(t, text, mode.name, mode.name, x, x, kind)
+            self.zeno_switch(text, t, x, mode)
+
+    def zeno_switch(self, text: str, t: float, x: np.ndarray, mode: CompiledMode) -> None:
+        verdict = self.zeno.record(f"switch:{text}", t)
+        if verdict is not None:
+            self.finish_zeno(f"the discontinuity {text} chatters: {verdict.describe()}",
+                             verdict.accumulation_time, t, x, mode)
+
+    def check_invariant(self, mode: CompiledMode, t: float, x: np.ndarray, k: int) -> None:
+        value = mode.invariants.values(t, x, self.p, _NO_SIGMA)[k]
+        f = mode.flow(t, x, self.p, self.sigma_at(mode, t, x))
+        slope = mode.invariants.derivative(t, x, self.p, _NO_SIGMA, f)[k]
+        if slope >= 0 and value >= -self.o.event_atol:
+            return  # touched tangentially and stays inside
+        waiting = [tr.name for tr in mode.outgoing
+                   if tr.guard is not None and tr.period is None
+                   and self.guard_state(tr, mode, t, x)[0] >= 0]
+        detail = (f"; transition(s) {', '.join(waiting)} hold but just fired (a zero-dwell "
+                  "self-loop)" if waiting else "")
+        status = Status.ZENO if waiting else Status.INVARIANT_VIOLATED
+        raise _Stop(status, f"mode {mode.name!r} at t = {t!r}: the flow leaves the invariant "
+                            f"{mode.invariant_texts[k]!r} and no transition is enabled{detail}",
+                    t if waiting else None)
+
+    # ----- driver --------------------------------------------------------------------------
+    def run(self, t0: float, x0: np.ndarray, mode_name: str) -> SimulationResult:
+        mode = self.c.modes[mode_name]
+        t, x = float(t0), np.asarray(x0, dtype=float).copy()
+        self.last = (t, x, mode)
+        status, message, zeno_time = Status.COMPLETED, "", None
+        try:
+            self.enter_mode(mode, t, x)
+            mode, x = self.event_iteration(mode, t, x, set(), set())[:2]
+            self.last = (t, x, mode)
+            while t < self.t_end:
+                t_stop = min(self.t_end, self.next_scheduled(mode, t))
+                if t_stop - t > self.xtol(t):
+                    t, x, triggers, rows = self.flow(mode, t, x, t_stop)
+                    self.last = (t, x, mode)
+                    if triggers:
+                        mode, x = self.handle(mode, t, x, triggers, rows)
+                        self.last = (t, x, mode)
+                        continue
+                t = t_stop
+                if t < self.t_end or self.due_any(mode, t):
+                    mode, x = self.event_iteration(mode, t, x, set(), set())[:2]
+                    self.last = (t, x, mode)
+            message = f"reached t_end = {self.t_end!r}"
+        except _Stop as stop:
+            status, message, zeno_time = stop.status, stop.message, stop.zeno_time
+        except SimulationError:
+            raise
+        t, x, mode = self.last
+        if not self.segments or self.segments[-1].t_end < t or self.segments[-1].j != self.j:
+            self.segments.append(Segment(mode.name, self.j, np.array([t]), x[:, None].copy()))
+        final = FinalState(float(t), self.j, mode.name, self.state_map(x))
+        return SimulationResult(status, message, tuple(self.events), tuple(self.segments), final,
+                                self.names, zeno_time, dict(self.stats))
+
+    def due_any(self, mode: CompiledMode, t: float) -> bool:
+        return any(tr.period is not None and self.due(tr, t) for tr in mode.outgoing)
+
+
+def run(compiled: CompiledModel, *, t0: float, x0: np.ndarray, mode: str, t_end: float,
+        p: np.ndarray, options: SimulationOptions) -> SimulationResult:
+    """Simulate ``compiled`` from ``(t0, x0, mode)`` to ``t_end``; see :func:`hybridlab.simulate`."""
+    return _Run(compiled, p, options, t_end).run(t0, x0, mode)

@@ -1,0 +1,287 @@
+"""Event location on the integrator's dense output.
+
+Every watched quantity is a *monitor* ``phi(t)`` that fires when it reaches
+zero from above. Within one integrator step each monitor is sampled, with its
+time derivative, at ``2 * samples_per_step + 1`` points. On every
+sub-interval the cubic Hermite interpolant of the samples is compared with
+the true value at the midpoint; where they disagree (the monitor is not
+resolved, e.g. a guard that oscillates faster than the step) the
+sub-interval is bisected, up to ``max_refine`` times. On the resolved
+samples each sub-interval is then examined through its cubic: a sign change,
+or an interior minimum that reaches zero (two crossings inside one
+sub-interval, or a tangential touch), marks a candidate, which is confirmed
+and located on the true function by bounded minimisation and a bracketing
+root finder that keeps ``phi(lo) > 0 >= phi(hi)`` and returns ``hi``: the
+first instant at which the monitor has reached zero.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+__all__ = ["Trigger", "sample_step", "first_trigger", "locate_crossing", "hermite_extremes"]
+
+BatchFn = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+ValueFn = Callable[[float], float]
+
+
+@dataclass(frozen=True)
+class Trigger:
+    """A monitor reaching zero at time ``t`` (``grazing``: tangentially)."""
+
+    monitor: int
+    t: float
+    grazing: bool
+
+
+def _coefficients(h: np.ndarray, fa: np.ndarray, fb: np.ndarray, da: np.ndarray,
+                  db: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Cubic ``c0 + c1 s + c2 s^2 + c3 s^3`` on s in [0, 1] matching values and slopes."""
+    c1 = h * da
+    c2 = 3.0 * (fb - fa) - h * (2.0 * da + db)
+    c3 = 2.0 * (fa - fb) + h * (da + db)
+    return fa, c1, c2, c3
+
+
+def hermite_extremes(h: np.ndarray, fa: np.ndarray, fb: np.ndarray, da: np.ndarray,
+                     db: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Minimum and maximum of the cubic Hermite interpolant on each interval.
+
+    Returns ``(min_value, s_at_min, max_value, s_at_max)`` with ``s`` in [0, 1].
+
+    Examples
+    --------
+    >>> lo, s_lo, hi, s_hi = hermite_extremes(np.array([1.0]), np.array([1.0]), np.array([1.0]),
+    ...                                       np.array([-4.0]), np.array([4.0]))
+    >>> float(lo[0]), float(s_lo[0])
+    (0.0, 0.5)
+    """
+    c0, c1, c2, c3 = _coefficients(h, fa, fb, da, db)
+    candidates = [np.zeros_like(c0), np.ones_like(c0)]
+    # roots of c1 + 2 c2 s + 3 c3 s^2, by the cancellation-free form of the quadratic formula
+    a, b, c = 3.0 * c3, 2.0 * c2, c1
+    disc = b * b - 4.0 * a * c
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sq = np.sqrt(np.where(disc >= 0, disc, np.nan))
+        q = -0.5 * (b + np.where(b >= 0, 1.0, -1.0) * sq)
+        r1 = np.where(a != 0, q / a, np.nan)
+        r2 = np.where(q != 0, c / q, np.where(b != 0, -c / b, np.nan))
+    for r in (r1, r2):
+        inside = np.isfinite(r) & (r > 0) & (r < 1)
+        candidates.append(np.where(inside, r, 0.0))
+    s = np.stack(candidates)
+    values = c0 + s * (c1 + s * (c2 + s * c3))
+    i_min = np.argmin(values, axis=0)
+    i_max = np.argmax(values, axis=0)
+    cols = np.arange(values.shape[1]) if values.ndim == 2 else ()
+    if values.ndim == 1:
+        return (values[i_min], s[i_min], values[i_max], s[i_max])
+    return (values[i_min, cols], s[i_min, cols], values[i_max, cols], s[i_max, cols])
+
+
+_CHECK_AT = 0.41421356237309515  # sqrt(2) - 1: an irrational split keeps grids from aliasing
+
+
+def sample_step(t0: float, t1: float, batch: BatchFn, samples: int, max_refine: int,
+                tol: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Sample every monitor on ``[t0, t1]`` until its shape is resolved.
+
+    Each interval is checked at an interior point (an irrational fraction of
+    its length, so that refined grids are not uniform and a periodic guard
+    cannot alias): the cubic Hermite interpolant of the end values and slopes
+    must predict both the value and the slope there. An interval that fails
+    and whose monitor may come near zero is split at that point.
+
+    Parameters
+    ----------
+    t0, t1 : float
+        The step.
+    batch : callable
+        ``batch(tau) -> (phi, dphi)``, arrays of shape ``(M, len(tau))``.
+    samples : int
+        Initial number of intervals.
+    max_refine : int
+        Maximum split depth of an unresolved interval.
+    tol : float
+        Absolute monitor tolerance (``event_atol``).
+
+    Returns
+    -------
+    tau, phi, dphi : numpy.ndarray
+        Sorted sample times and monitor values and slopes there.
+    refinements : int
+        How many intervals were split.
+    """
+    grid = np.linspace(t0, t1, samples + 1)
+    g_phi, g_dphi = batch(grid)
+    kept_t, kept_phi, kept_dphi = [grid], [g_phi], [g_dphi]
+    a_t, b_t = grid[:-1], grid[1:]
+    a_phi, b_phi, a_d, b_d = g_phi[:, :-1], g_phi[:, 1:], g_dphi[:, :-1], g_dphi[:, 1:]
+    refinements = 0
+    for level in range(max_refine + 1):
+        if g_phi.shape[0] == 0 or a_t.size == 0:
+            break
+        h = b_t - a_t
+        c_t = a_t + _CHECK_AT * h
+        c_phi, c_d = batch(c_t)
+        kept_t.append(c_t)
+        kept_phi.append(c_phi)
+        kept_dphi.append(c_d)
+        if level == max_refine:
+            break
+        k0, k1, k2, k3 = _coefficients(h, a_phi, b_phi, a_d, b_d)
+        q = _CHECK_AT
+        predicted = k0 + q * (k1 + q * (k2 + q * k3))
+        slope = (k1 + q * (2.0 * k2 + 3.0 * q * k3)) / np.where(h > 0, h, 1.0)
+        # value and slope must both agree: one alone can match by accident
+        err = np.maximum(np.abs(c_phi - predicted), 0.25 * h * np.abs(c_d - slope))
+        values = np.stack([a_phi, c_phi, b_phi])
+        scale = np.max(np.abs(values), axis=0)
+        lo = np.min(np.abs(values), axis=0)
+        sign_change = (np.sign(a_phi) != np.sign(c_phi)) | (np.sign(c_phi) != np.sign(b_phi))
+        near = (lo <= 4.0 * err + tol) | sign_change
+        split = np.any((err > 0.05 * scale + tol) & near, axis=0)
+        if not np.any(split):
+            break
+        refinements += int(split.sum())
+        a_t, b_t = (np.concatenate([a_t[split], c_t[split]]),
+                    np.concatenate([c_t[split], b_t[split]]))
+        a_phi, b_phi = (np.concatenate([a_phi[:, split], c_phi[:, split]], axis=1),
+                        np.concatenate([c_phi[:, split], b_phi[:, split]], axis=1))
+        a_d, b_d = (np.concatenate([a_d[:, split], c_d[:, split]], axis=1),
+                    np.concatenate([c_d[:, split], b_d[:, split]], axis=1))
+    tau = np.concatenate(kept_t)
+    tau, first = np.unique(tau, return_index=True)
+    phi = np.concatenate(kept_phi, axis=1)[:, first]
+    dphi = np.concatenate(kept_dphi, axis=1)[:, first]
+    return tau, phi, dphi, refinements
+
+
+def locate_crossing(fn: ValueFn, lo: float, hi: float, f_lo: float, f_hi: float,
+                    xtol: float, max_iter: int = 200) -> float:
+    """Shrink ``[lo, hi]`` with ``fn(lo) > 0 >= fn(hi)`` to width ``xtol``; return ``hi``.
+
+    Illinois-modified regula falsi, falling back to bisection, so the bracket
+    always shrinks and ``hi`` is never past the first crossing inside it.
+
+    Examples
+    --------
+    >>> t = locate_crossing(lambda t: 2.0 - t * t, 0.0, 2.0, 2.0, -2.0, 1e-14)
+    >>> abs(t - 2 ** 0.5) < 1e-13
+    True
+    """
+    side = 0
+    for _ in range(max_iter):
+        if hi - lo <= xtol:
+            break
+        denom = f_lo - f_hi
+        mid = hi - f_hi * (hi - lo) / denom if denom > 0 else 0.5 * (lo + hi)
+        if not lo < mid < hi or (hi - lo) < 4 * xtol:
+            mid = 0.5 * (lo + hi)
+        # keep the interpolation point away from the ends so convergence is bracketed
+        mid = min(max(mid, lo + 0.25 * xtol), hi - 0.25 * xtol)
+        f_mid = fn(mid)
+        if f_mid > 0:
+            lo, f_lo = mid, f_mid
+            if side == -1:
+                f_hi *= 0.5
+            side = -1
+        else:
+            hi, f_hi = mid, f_mid
+            if side == 1:
+                f_lo *= 0.5
+            side = 1
+    return hi
+
+
+def _true_minimum(fn: ValueFn, a: float, b: float, s_guess: float, xtol: float) -> tuple[float,
+                                                                                          float]:
+    res = minimize_scalar(fn, bounds=(a, b), method="bounded",
+                          options={"xatol": max(xtol, 1e-15 * max(abs(a), abs(b), 1.0))})
+    t_best, f_best = float(res.x), float(res.fun)
+    guess = a + s_guess * (b - a)
+    f_guess = fn(guess)
+    if f_guess < f_best:
+        t_best, f_best = guess, f_guess
+    return t_best, f_best
+
+
+def _search(candidates: np.ndarray, tau: np.ndarray, fa: np.ndarray, fb: np.ndarray,
+            lo_val: np.ndarray, lo_s: np.ndarray, fn: ValueFn, t_from: float, level: float,
+            index: int, xtol: float, tol: float) -> Trigger | None:
+    """First time ``fn`` reaches ``level`` within the candidate intervals."""
+    for k in candidates:
+        a = max(float(tau[k]), t_from)
+        b = float(tau[k + 1])
+        f_a = (fn(a) if a != tau[k] else float(fa[k])) - level
+        f_b = float(fb[k]) - level
+        if f_a <= 0:  # touching at the very start of the interval
+            return Trigger(index, a, grazing=True)
+        if f_b <= 0 and not (0.0 < lo_s[k] < 1.0 and lo_val[k] < fb[k]):
+            t_min, f_min = b, f_b
+        else:
+            t_min, f_min = _true_minimum(lambda t: fn(t) - level, a, b, float(lo_s[k]), xtol)
+            if f_b <= 0 and f_b < f_min:
+                t_min, f_min = b, f_b
+        if f_min <= 0:
+            t_hit = locate_crossing(lambda t: fn(t) - level, a, t_min, f_a, f_min, xtol)
+            return Trigger(index, t_hit, grazing=False)
+        if f_min <= tol:
+            return Trigger(index, t_min, grazing=True)
+    return None
+
+
+def first_trigger(index: int, tau: np.ndarray, phi: np.ndarray, dphi: np.ndarray, armed: bool,
+                  fn: ValueFn, xtol: float, tol: float,
+                  floor: float | None = None) -> tuple[Trigger | None, bool]:
+    """The first time monitor ``index`` reaches zero from above within the samples.
+
+    A monitor that is not ``armed`` (it started on or below zero, e.g. a guard
+    right after its own reset) must first rise above ``tol``; if ``floor`` is
+    given it also fires when it sinks below ``floor`` without ever rising (a
+    safety net: a state that started on a boundary and went through it).
+
+    Returns
+    -------
+    trigger : Trigger or None
+    armed : bool
+        Whether the monitor is armed at the end of the samples (used to carry
+        the state into the next step when nothing triggers).
+    """
+    h = np.diff(tau)
+    fa, fb, da, db = phi[:-1], phi[1:], dphi[:-1], dphi[1:]
+    lo_val, lo_s, hi_val, hi_s = hermite_extremes(h, fa, fb, da, db)
+    lower = np.minimum(np.minimum(fa, fb), lo_val)
+    start = 0
+    t_from = float(tau[0])
+    if not armed:
+        rising = np.nonzero(np.maximum(np.maximum(fa, fb), hi_val) > tol)[0]
+        limit = int(rising[0]) if rising.size else h.size
+        if floor is not None:  # only before the interval in which it re-arms
+            sinking = np.nonzero(lower[:limit] <= floor)[0]
+            trig = _search(sinking, tau, fa, fb, lo_val, lo_s, fn, t_from, floor, index, xtol,
+                           0.0)
+            if trig is not None:
+                return trig, False
+        if rising.size == 0:
+            return None, False
+        start = limit
+        if fa[start] > tol:
+            t_from = float(tau[start])
+        elif hi_val[start] > tol and hi_s[start] < 1.0:
+            t_from = float(tau[start] + hi_s[start] * h[start])
+            if fn(t_from) <= tol:  # the cubic promised more than the function gives
+                t_from = float(tau[start + 1])
+                start += 1
+        else:
+            t_from = float(tau[start + 1])
+            start += 1
+        if start >= h.size:
+            return None, bool(phi[-1] > tol)
+    candidates = np.nonzero(lower[start:] <= tol)[0] + start
+    return _search(candidates, tau, fa, fb, lo_val, lo_s, fn, t_from, 0.0, index, xtol,
+                   tol), True

@@ -1,0 +1,272 @@
+"""Simulation results: hybrid time, mode trace, event log, dense evaluation, export."""
+
+from __future__ import annotations
+
+import csv
+import enum
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["Status", "Event", "Segment", "FinalState", "SimulationResult"]
+
+
+class Status(enum.Enum):
+    """How a simulation ended; each value is an actionable explanation."""
+
+    COMPLETED = "reached t_end"
+    ZENO = ("events accumulate in finite time (Zeno behaviour); the model has no solution past "
+            "the accumulation point: regularise it (e.g. a rest mode entered below a velocity "
+            "threshold) or shorten t_end")
+    INVARIANT_VIOLATED = ("the state reached the boundary of its mode's invariant and no "
+                          "transition was enabled there: add or widen a guard")
+    MAX_EVENTS = "stopped after max_events events: raise max_events if this is expected"
+    SOLVER_FAILED = ("the integrator failed: try a stiff method (Radau, BDF), looser tolerances, "
+                     "or check the flow for singularities")
+
+    @property
+    def ok(self) -> bool:
+        """True only for ``COMPLETED``."""
+        return self is Status.COMPLETED
+
+
+@dataclass(frozen=True)
+class Event:
+    """One logged event.
+
+    Attributes
+    ----------
+    t : float
+        Event time.
+    j : int
+        Jump counter after the event (jumps increment it; switching-surface
+        events of a discontinuous flow do not).
+    transition : str
+        Transition name, or the switching function for flow events.
+    source, target : str
+        Modes before and after.
+    pre, post : mapping of str to float
+        State before and after the event.
+    kind : str
+        ``"jump"`` (a transition fired), ``"crossing"`` (a discontinuity of the
+        flow was crossed), ``"slide_start"`` or ``"slide_end"`` (Filippov sliding).
+    grazing : bool
+        The guard was reached tangentially.
+    """
+
+    t: float
+    j: int
+    transition: str
+    source: str
+    target: str
+    pre: Mapping[str, float]
+    post: Mapping[str, float]
+    kind: str = "jump"
+    grazing: bool = False
+
+    def as_dict(self) -> dict[str, Any]:
+        """A JSON-ready mapping."""
+        return {"t": self.t, "j": self.j, "transition": self.transition, "source": self.source,
+                "target": self.target, "kind": self.kind, "grazing": self.grazing,
+                "pre": dict(self.pre), "post": dict(self.post)}
+
+
+@dataclass(frozen=True)
+class Segment:
+    """A piece of flow in one mode between two jumps (or a solver restart)."""
+
+    mode: str
+    j: int
+    t: np.ndarray
+    y: np.ndarray
+    interpolants: tuple[Any, ...] = field(repr=False, default=())
+
+    @property
+    def t_start(self) -> float:
+        return float(self.t[0])
+
+    @property
+    def t_end(self) -> float:
+        return float(self.t[-1])
+
+    def __call__(self, t: float | np.ndarray) -> np.ndarray:
+        """Dense state inside the segment; shape ``(n,)`` or ``(n, k)``."""
+        ts = np.atleast_1d(np.asarray(t, dtype=float))
+        out = np.empty((self.y.shape[0], ts.size))
+        idx = np.clip(np.searchsorted(self.t, ts, side="left") - 1, 0, len(self.t) - 2)
+        for k, (i, tk) in enumerate(zip(idx, ts, strict=True)):
+            if len(self.interpolants) == 0 or len(self.t) < 2:
+                out[:, k] = self.y[:, min(i, self.y.shape[1] - 1)]
+            else:
+                out[:, k] = self.interpolants[i](tk)
+        return out[:, 0] if np.ndim(t) == 0 else out
+
+
+@dataclass(frozen=True)
+class FinalState:
+    """Where a simulation ended."""
+
+    t: float
+    j: int
+    mode: str
+    state: Mapping[str, float]
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """The outcome of :func:`hybridlab.simulate`.
+
+    Attributes
+    ----------
+    status : Status
+        How the run ended; ``status.ok`` is ``True`` for a complete run.
+    message : str
+        What happened, specific to this run.
+    events : tuple of Event
+        The event log in order.
+    segments : tuple of Segment
+        The flow pieces, with dense interpolants.
+    final : FinalState
+        Time, jump count, mode and state at the end.
+    state_names : tuple of str
+    zeno_time : float or None
+        Estimated accumulation time when ``status`` is ``ZENO``.
+    stats : mapping
+        Counters: steps, flow evaluations, event locations, refinements.
+    """
+
+    status: Status
+    message: str
+    events: tuple[Event, ...]
+    segments: tuple[Segment, ...]
+    final: FinalState
+    state_names: tuple[str, ...]
+    zeno_time: float | None = None
+    stats: Mapping[str, int] = field(default_factory=dict)
+
+    # ----- views ---------------------------------------------------------------------------
+    @property
+    def jumps(self) -> tuple[Event, ...]:
+        """Only the events where a transition fired."""
+        return tuple(e for e in self.events if e.kind == "jump")
+
+    @property
+    def t(self) -> np.ndarray:
+        """Times of all stored points (integrator steps and both sides of every event)."""
+        return np.concatenate([s.t for s in self.segments]) if self.segments else np.empty(0)
+
+    @property
+    def y(self) -> np.ndarray:
+        """States at :attr:`t`, shape ``(n, k)``."""
+        if not self.segments:
+            return np.empty((len(self.state_names), 0))
+        return np.concatenate([s.y for s in self.segments], axis=1)
+
+    @property
+    def j(self) -> np.ndarray:
+        """Jump counter at :attr:`t` (hybrid time is the pair ``(t, j)``)."""
+        return np.concatenate([np.full(s.t.size, s.j) for s in self.segments]).astype(int)
+
+    @property
+    def modes(self) -> list[str]:
+        """Mode at each point of :attr:`t`."""
+        return [s.mode for s in self.segments for _ in range(s.t.size)]
+
+    def mode_trace(self) -> list[tuple[float, int, str]]:
+        """``(t_start, j, mode)`` for every segment, in order."""
+        return [(s.t_start, s.j, s.mode) for s in self.segments]
+
+    def state(self, name: str) -> np.ndarray:
+        """The stored trajectory of one state, aligned with :attr:`t`."""
+        return self.y[self.state_names.index(name)]
+
+    def _segment_at(self, t: float, j: int | None) -> Segment:
+        candidates = [s for s in self.segments
+                      if s.t_start <= t <= s.t_end and (j is None or s.j == j)]
+        if not candidates:
+            span = (self.segments[0].t_start, self.segments[-1].t_end) if self.segments else ()
+            raise ValueError(f"t={t!r} (j={j!r}) is outside the simulated hybrid time {span}")
+        return candidates[-1]
+
+    def __call__(self, t: float | Sequence[float] | np.ndarray, j: int | None = None) -> np.ndarray:
+        """Dense state at time(s) ``t``; at a jump instant the post-jump state unless ``j``.
+
+        Returns shape ``(n,)`` for a scalar ``t`` and ``(n, k)`` otherwise.
+        """
+        ts = np.atleast_1d(np.asarray(t, dtype=float))
+        out = np.column_stack([self._segment_at(float(tk), j)(float(tk)) for tk in ts])
+        return out[:, 0] if np.ndim(t) == 0 else out
+
+    evaluate = __call__
+
+    def mode_at(self, t: float, j: int | None = None) -> str:
+        """The mode at time ``t`` (post-jump at a jump instant)."""
+        return self._segment_at(float(t), j).mode
+
+    def sample(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """States on a uniform grid of spacing ``dt`` (post-jump values at jump instants)."""
+        if not dt > 0:
+            raise ValueError(f"dt must be positive (got {dt!r})")
+        t0, t1 = self.segments[0].t_start, self.final.t
+        grid = np.arange(t0, t1 + 0.5 * dt, dt)
+        grid = grid[grid <= t1]
+        return grid, self(grid)
+
+    # ----- export --------------------------------------------------------------------------
+    def as_dict(self, include_trajectory: bool = True) -> dict[str, Any]:
+        """A JSON-ready mapping: status, events, final, and the stored trajectory."""
+        data: dict[str, Any] = {
+            "status": self.status.name,
+            "message": self.message,
+            "zeno_time": self.zeno_time,
+            "state_names": list(self.state_names),
+            "events": [e.as_dict() for e in self.events],
+            "final": {"t": self.final.t, "j": self.final.j, "mode": self.final.mode,
+                      "state": dict(self.final.state)},
+            "stats": dict(self.stats),
+        }
+        if include_trajectory:
+            y = self.y
+            data["trajectory"] = {"t": self.t.tolist(), "j": self.j.tolist(), "mode": self.modes,
+                                  **{n: y[i].tolist() for i, n in enumerate(self.state_names)}}
+        return data
+
+    def to_json(self, path: str | Path | None = None) -> str:
+        """Write (or return) the JSON form."""
+        text = json.dumps(self.as_dict(), indent=1)
+        if path is not None:
+            Path(path).write_text(text)
+        return text
+
+    def to_csv(self, path: str | Path) -> None:
+        """Write the stored trajectory as CSV with columns ``t, j, mode, <states>``."""
+        y = self.y
+        with Path(path).open("w", newline="") as fh:
+            writer = csv.writer(fh)
+            writer.writerow(["t", "j", "mode", *self.state_names])
+            for k, (tk, jk, mk) in enumerate(zip(self.t, self.j, self.modes, strict=True)):
+                writer.writerow([repr(float(tk)), int(jk), mk, *(repr(float(v)) for v in y[:, k])])
+
+    def to_npz(self, path: str | Path) -> None:
+        """Write arrays ``t, j, y, state_names, modes`` and the event log to an NPZ file."""
+        events = self.events
+        np.savez(
+            path, t=self.t, j=self.j, y=self.y, state_names=np.array(self.state_names),
+            modes=np.array(self.modes), status=np.array(self.status.name),
+            event_t=np.array([e.t for e in events]), event_j=np.array([e.j for e in events]),
+            event_transition=np.array([e.transition for e in events]),
+            event_pre=np.array([[e.pre[n] for n in self.state_names] for e in events]),
+            event_post=np.array([[e.post[n] for n in self.state_names] for e in events]),
+        )
+
+    def save(self, path: str | Path) -> None:
+        """Write by suffix: ``.json``, ``.csv`` or ``.npz``."""
+        suffix = Path(path).suffix.lower()
+        writers = {".json": self.to_json, ".csv": self.to_csv, ".npz": self.to_npz}
+        if suffix not in writers:
+            raise ValueError(f"output file must end in .json, .csv or .npz (got {str(path)!r})")
+        writers[suffix](path)

@@ -1,0 +1,135 @@
+"""Discontinuous flows: choosing the sign of each switch, and Filippov sliding.
+
+At a point on a switching surface ``s_k = 0`` the flows on both sides decide
+what happens (Filippov): if both push the state across, it crosses; if both
+push towards the surface, the state *slides* on it with the equivalent
+dynamics, obtained by solving ``ds_k/dt = 0`` for the sign value
+``sigma_k in [-1, 1]`` (for flows affine in ``sigma`` this is exactly
+Filippov's convex combination). Several surfaces may slide at once; the set
+is found by an active-set iteration. Sliding ends when an equivalent value
+reaches +-1, which the simulator watches as an event.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+
+import numpy as np
+
+from hybridlab.errors import SimulationError
+from hybridlab.symbolic.compile import CompiledMode
+
+__all__ = ["equivalent_sigma", "equivalent_sigma_batch", "resolve_switches"]
+
+_EQ_SLACK = 1e-12
+
+
+def _sdot(mode: CompiledMode, t: float, x: np.ndarray, p: np.ndarray,
+          sigma: np.ndarray) -> np.ndarray:
+    f = mode.flow(t, x, p, sigma)
+    return mode.switch_fields.derivative(t, x, p, sigma, f)
+
+
+def _require_affine(mode: CompiledMode, sliding: Sequence[int]) -> None:
+    if not mode.affine_in_sigma:
+        names = ", ".join(mode.switches[k].text for k in sliding)
+        raise SimulationError(
+            f"mode {mode.name!r}: sliding on {names} needs a flow that is affine in the sign "
+            "of each switching function (e.g. c*sign(v)); rewrite the discontinuity or use modes")
+
+
+def equivalent_sigma(mode: CompiledMode, t: float, x: np.ndarray, p: np.ndarray,
+                     sigma: np.ndarray, sliding: Sequence[int]) -> np.ndarray:
+    """Equivalent sign values of the ``sliding`` switches at one point.
+
+    Solves ``ds_S/dt = 0`` (linear in ``sigma_S`` for flows affine in sigma).
+    """
+    sliding = list(sliding)
+    base = sigma.copy()
+    base[sliding] = 0.0
+    f0 = mode.flow(t, x, p, base)
+    b = mode.switch_fields.derivative(t, x, p, base, f0)[sliding]
+    grad = mode.switch_fields.gradient(t, x, p, base)[sliding]
+    assert mode.flow_dsigma is not None  # noqa: S101 - sliding implies switches exist
+    a = grad @ mode.flow_dsigma(t, x, p, base)[:, sliding]
+    try:
+        return np.linalg.solve(a, -b)
+    except np.linalg.LinAlgError:
+        names = ", ".join(mode.switches[k].text for k in sliding)
+        raise SimulationError(
+            f"mode {mode.name!r}: sliding on {names} at t={t!r} is not uniquely defined "
+            "(the equivalent-dynamics matrix is singular)") from None
+
+
+def equivalent_sigma_batch(mode: CompiledMode, t: np.ndarray, x: np.ndarray, p: np.ndarray,
+                           sigma: np.ndarray, sliding: Sequence[int]) -> np.ndarray:
+    """:func:`equivalent_sigma` at ``k`` points; returns shape ``(len(sliding), k)``."""
+    sliding = list(sliding)
+    base = sigma.copy()
+    base[sliding] = 0.0
+    f0 = mode.flow.batch(t, x, p, base)
+    b = mode.switch_fields.batch_derivative(t, x, p, base, f0)[sliding]
+    grad = mode.switch_fields.gradient_batch(t, x, p, base)[sliding]
+    assert mode.flow_dsigma is not None  # noqa: S101
+    dsig = mode.flow_dsigma.batch(t, x, p, base)[:, sliding]
+    a = np.einsum("snk,nrk->ksr", grad, dsig)
+    try:
+        return np.linalg.solve(a, -b.T[..., None])[..., 0].T
+    except np.linalg.LinAlgError:
+        return np.full((len(sliding), np.size(t)), np.inf)
+
+
+def resolve_switches(mode: CompiledMode, t: float, x: np.ndarray, p: np.ndarray,
+                     sigma: np.ndarray, at_surface: Iterable[int],
+                     forced: dict[int, float] | None = None) -> tuple[np.ndarray, tuple[int, ...]]:
+    """Decide the sign of every switch at a point where ``at_surface`` switches vanish.
+
+    Parameters
+    ----------
+    mode : CompiledMode
+    t, x, p : time, state, parameters
+    sigma : numpy.ndarray
+        Current signs (+-1); entries of ``at_surface`` are re-decided.
+    at_surface : iterable of int
+        Switches with ``s_k = 0`` at this point.
+    forced : dict, optional
+        Switches whose sign is fixed (a sliding motion that just ended).
+
+    Returns
+    -------
+    sigma : numpy.ndarray
+        New signs; sliding entries hold their equivalent value.
+    sliding : tuple of int
+        The switches that slide.
+    """
+    sigma = sigma.copy()
+    forced = forced or {}
+    for k, value in forced.items():
+        sigma[k] = value
+    candidates = [k for k in sorted(set(at_surface)) if k not in forced]
+    sliding: list[int] = []
+    for k in candidates:
+        plus, minus = sigma.copy(), sigma.copy()
+        plus[k], minus[k] = 1.0, -1.0
+        d_plus = _sdot(mode, t, x, p, plus)[k]
+        d_minus = _sdot(mode, t, x, p, minus)[k]
+        if d_plus > 0 and d_minus > 0:
+            sigma[k] = 1.0
+        elif d_plus < 0 and d_minus < 0:
+            sigma[k] = -1.0
+        elif d_plus <= 0 <= d_minus and d_minus > d_plus:
+            sliding.append(k)
+        else:  # repelling or tangential: keep going the way the state came
+            sigma[k] = 1.0 if sigma[k] >= 0 else -1.0
+    while sliding:
+        _require_affine(mode, sliding)
+        sigma[sliding] = 0.0
+        eq = equivalent_sigma(mode, t, x, p, sigma, sliding)
+        outside = [k for k, value in zip(sliding, eq, strict=True) if abs(value) > 1 + _EQ_SLACK]
+        sigma[sliding] = eq
+        if not outside:
+            break
+        for k in outside:
+            sigma[k] = float(np.sign(sigma[k]))
+            sliding.remove(k)
+    return sigma, tuple(sliding)

@@ -1,0 +1,72 @@
+"""Detection of Zeno behaviour: jumps accumulating at a finite time."""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["ZenoVerdict", "ZenoTracker"]
+
+
+@dataclass(frozen=True)
+class ZenoVerdict:
+    """Evidence that one transition's firings accumulate at ``accumulation_time``."""
+
+    transition: str
+    firings: int
+    ratio: float
+    accumulation_time: float
+
+    def describe(self) -> str:
+        return (f"transition {self.transition!r} fired {self.firings} times with dwell times "
+                f"shrinking by a factor {self.ratio:.4g}; firings accumulate at "
+                f"t = {self.accumulation_time:.10g}")
+
+
+class ZenoTracker:
+    """Watches the dwell times between firings of each transition.
+
+    When the last ``window`` dwell times shrink geometrically and the
+    extrapolated accumulation point ``t + d r / (1 - r)`` is closer than
+    ``tol * max(1, |t|)`` (or the dwell is below the event time resolution),
+    the run is Zeno.
+
+    Examples
+    --------
+    >>> z = ZenoTracker(window=4, tol=1e-3, time_resolution=1e-12)
+    >>> verdict = None
+    >>> t, d = 0.0, 1.0
+    >>> while verdict is None:
+    ...     t, d = t + d, d * 0.5
+    ...     verdict = z.record("bounce", t)
+    >>> round(verdict.accumulation_time, 6)
+    2.0
+    """
+
+    def __init__(self, window: int, tol: float, time_resolution: float) -> None:
+        self.window = window
+        self.tol = tol
+        self.time_resolution = time_resolution
+        self._times: dict[str, deque[float]] = {}
+        self._counts: dict[str, int] = {}
+
+    def record(self, name: str, t: float) -> ZenoVerdict | None:
+        times = self._times.setdefault(name, deque(maxlen=self.window + 1))
+        times.append(t)
+        self._counts[name] = self._counts.get(name, 0) + 1
+        if len(times) < self.window + 1:
+            return None
+        dwell = np.diff(np.asarray(times))
+        if np.any(dwell <= 0):
+            return None
+        ratios = dwell[1:] / dwell[:-1]
+        if not (np.all(ratios < 1.0) and ratios.max() <= 1.5 * ratios.min()):
+            return None
+        r = float(np.mean(ratios[-3:]))
+        remaining = dwell[-1] * r / (1.0 - r)
+        scale = max(1.0, abs(t))
+        if remaining <= self.tol * scale or dwell[-1] <= self.time_resolution * scale:
+            return ZenoVerdict(name, self._counts[name], r, t + remaining)
+        return None
