@@ -51,9 +51,9 @@ def to_dot(model: Model) -> str:
     graph = mode_graph(model)
     lines = [f"digraph {_quote(model.name)} {{", "  rankdir=LR;"]
     for node, data in graph.nodes(data=True):
-        flow = "\\n".join(f"{k}' = {v}" for k, v in data["flow"].items())
+        flow = "\n".join(f"{k}' = {v}" for k, v in data["flow"].items())
         shape = "doublecircle" if data["initial"] else "ellipse"
-        label = node + ("\\n" + flow if flow else "")
+        label = node + ("\n" + flow if flow else "")
         lines.append(f"  {_quote(node)} [shape={shape}, label={_quote(label)}];")
     for u, v, data in graph.edges(data=True):
         parts = [data["name"]]

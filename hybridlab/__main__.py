@@ -1,0 +1,7 @@
+"""``python -m hybridlab`` runs the command line."""
+
+import sys
+
+from hybridlab.cli import main
+
+sys.exit(main())

@@ -1,0 +1,180 @@
+"""The ``hybridlab`` command line.
+
+Exit codes: 0 success; 2 user error (bad model, file or argument: one line on
+stderr, no traceback); 3 a simulation that ended before ``t_end`` (its status
+says why); 1 an internal error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from hybridlab.errors import HybridlabError, ModelError
+from hybridlab.graph import to_dot
+from hybridlab.model.loader import load_model, model_json_schema
+from hybridlab.model.schema import Model
+from hybridlab.simulation.api import simulate
+from hybridlab.simulation.options import METHODS
+from hybridlab.symbolic.compile import compile_model
+
+__all__ = ["main"]
+
+EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INCOMPLETE = 0, 1, 2, 3
+
+
+class _UsageError(Exception):
+    pass
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line, not usage + message
+        raise _UsageError(message)
+
+
+def _assignments(items: Sequence[str] | None, option: str) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for item in items or ():
+        name, sep, value = item.partition("=")
+        if not sep or not name.strip():
+            raise _UsageError(f"{option} expects NAME=VALUE (got {item!r})")
+        try:
+            out[name.strip()] = float(value)
+        except ValueError:
+            raise _UsageError(f"{option} {name.strip()}: {value!r} is not a number") from None
+    return out
+
+
+def _summary(model: Model) -> str:
+    compiled = compile_model(model)
+    lines = [f"model {model.name!r}: OK"]
+    if model.description:
+        lines.append(f"  {' '.join(model.description.split())}")
+    lines.append(f"  states ({len(model.states)}): {', '.join(model.states)}")
+    lines.append(f"  parameters ({len(model.parameters)}): {', '.join(model.parameters) or '-'}")
+    lines.append(f"  modes ({len(model.modes)}), initial {model.initial.mode!r}:")
+    for name, mode in compiled.modes.items():
+        extra = ""
+        if mode.switches:
+            extra = "; discontinuities: " + ", ".join(s.text for s in mode.switches)
+        lines.append(f"    {name}: {len(mode.outgoing)} outgoing, "
+                     f"{len(mode.invariant_texts)} invariant(s){extra}")
+    lines.append(f"  transitions ({len(model.transitions)}):")
+    for tr in model.transitions:
+        when = " and ".join(tr.guard) or "-"
+        if tr.schedule:
+            when += f" every {tr.schedule.period:g}"
+        prio = "" if tr.priority is None else f" priority {tr.priority}"
+        lines.append(f"    {tr.name}: {tr.source} -> {tr.target} when {when}{prio}")
+    if model.scenarios:
+        lines.append("  scenarios: " + ", ".join(f"{k} (t_end {v.t_end:g})"
+                                                for k, v in model.scenarios.items()))
+    return "\n".join(lines)
+
+
+def _cmd_check(args: argparse.Namespace) -> int:
+    print(_summary(load_model(args.model)))
+    return EXIT_OK
+
+
+def _cmd_simulate(args: argparse.Namespace) -> int:
+    model = load_model(args.model)
+    kwargs = {}
+    if args.zeno:
+        kwargs["zeno"] = args.zeno
+    result = simulate(
+        model, args.t_end, scenario=args.scenario, params=_assignments(args.set, "--set"),
+        initial=_assignments(args.init, "--init"), mode=args.mode, rtol=args.rtol,
+        atol=args.atol, method=args.method, max_step=args.max_step, **kwargs,
+    )
+    if args.out:
+        out = Path(args.out)
+        if out.suffix.lower() not in (".json", ".csv", ".npz"):
+            raise _UsageError(f"--out must end in .json, .csv or .npz (got {args.out!r})")
+        result.save(out)
+    jumps = len(result.jumps)
+    print(f"status: {result.status.name}: {result.message}")
+    print(f"events: {len(result.events)} ({jumps} jumps)")
+    final = result.final
+    state = ", ".join(f"{k}={v:.10g}" for k, v in final.state.items())
+    print(f"final: t={final.t:.10g} j={final.j} mode={final.mode} {state}")
+    if result.zeno_time is not None:
+        print(f"zeno_time: {result.zeno_time:.12g}")
+    if args.out:
+        print(f"wrote {args.out}")
+    return EXIT_OK if result.status.ok else EXIT_INCOMPLETE
+
+
+def _cmd_graph(args: argparse.Namespace) -> int:
+    text = to_dot(load_model(args.model))
+    if args.out:
+        Path(args.out).write_text(text)
+        print(f"wrote {args.out}")
+    else:
+        print(text, end="")
+    return EXIT_OK
+
+
+def _cmd_schema(args: argparse.Namespace) -> int:
+    text = json.dumps(model_json_schema(), indent=2) + "\n"
+    if args.out:
+        Path(args.out).write_text(text)
+    else:
+        print(text, end="")
+    return EXIT_OK
+
+
+def _parser() -> _Parser:
+    parser = _Parser(prog="hybridlab", description="Model, simulate and verify hybrid automata.")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    check = sub.add_parser("check", help="validate a model file and summarise it")
+    check.add_argument("model")
+    check.set_defaults(run=_cmd_check)
+
+    sim = sub.add_parser("simulate", help="simulate a model")
+    sim.add_argument("model")
+    sim.add_argument("--scenario")
+    sim.add_argument("--t-end", type=float, dest="t_end")
+    sim.add_argument("--set", action="append", metavar="NAME=VALUE", help="parameter override")
+    sim.add_argument("--init", action="append", metavar="NAME=VALUE",
+                     help="initial state override")
+    sim.add_argument("--mode", help="initial mode")
+    sim.add_argument("--rtol", type=float)
+    sim.add_argument("--atol", type=float)
+    sim.add_argument("--method", choices=METHODS)
+    sim.add_argument("--max-step", type=float, dest="max_step")
+    sim.add_argument("--zeno", choices=("stop", "error"))
+    sim.add_argument("--out", help="write the result (.json, .csv or .npz)")
+    sim.set_defaults(run=_cmd_simulate)
+
+    graph = sub.add_parser("graph", help="print the mode graph in Graphviz DOT")
+    graph.add_argument("model")
+    graph.add_argument("--out", help="write the DOT text to this file")
+    graph.set_defaults(run=_cmd_graph)
+
+    schema = sub.add_parser("schema", help="print the JSON schema of model files")
+    schema.add_argument("--out")
+    schema.set_defaults(run=_cmd_schema)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; returns the exit code."""
+    try:
+        args = _parser().parse_args(argv)
+        return int(args.run(args))
+    except _UsageError as exc:
+        print(f"hybridlab: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except (ModelError, ValueError, TypeError, OSError, HybridlabError) as exc:
+        text = " ".join(str(exc).split())
+        print(f"hybridlab: error: {text}", file=sys.stderr)
+        return EXIT_USAGE
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
