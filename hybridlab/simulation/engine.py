@@ -152,14 +152,14 @@ class _Run:
         return float(g[i]), float(dg[i])
 
     def enabled(self, tr: CompiledTransition, mode: CompiledMode, t: float, x: np.ndarray,
-                fresh: set[int], fired_now: set[int]) -> bool:
+                fresh: set[int], previous: int | None) -> bool:
         if tr.period is not None:
             if not self.due(tr, t):
                 return False
             return tr.guard is None or self.guard_state(tr, mode, t, x)[0] >= 0
         if tr.index in fresh:
             return True
-        if tr.index in fired_now:
+        if tr.index == previous:
             return False  # no re-triggering right after its own reset
         value, slope = self.guard_state(tr, mode, t, x)
         band = 8 * self.xtol(t) * abs(slope) + self.o.event_atol
@@ -172,9 +172,10 @@ class _Run:
                                                                      set[int]]:
         """Fire enabled transitions at instant ``t`` until none is enabled."""
         fired_now: set[int] = set()
+        previous: int | None = None
         for _ in range(self.o.max_event_iterations):
             chosen = next((tr for tr in mode.outgoing
-                           if self.enabled(tr, mode, t, x, fresh, fired_now)), None)
+                           if self.enabled(tr, mode, t, x, fresh, previous)), None)
             if chosen is None:
                 break
             pre = x
@@ -188,6 +189,7 @@ class _Run:
             self.log(t, chosen.name, mode.name, target.name, pre, x, "jump",
                      chosen.index in grazing)
             fired_now.add(chosen.index)
+            previous = chosen.index
             if chosen.period is not None:
                 self.sched_done[chosen.index] = self._sched_index(chosen, t)
             else:
