@@ -118,16 +118,17 @@ class Inequality:
 def check_name(name: str) -> None:
     """Raise :class:`ExpressionError` unless ``name`` may be declared in a model.
 
-    Examples
+    Examples (``...`` stands for the rest of the message)
     --------
     >>> check_name("m_C")
     >>> check_name("sin")
     Traceback (most recent call last):
     ...
-    hybridlab.errors.ExpressionError: name shadows a built-in function or constant (token 'sin')
+    hybridlab.errors.ExpressionError: name shadows a built-in function or constant ...
     """
     if not isinstance(name, str) or not name.isidentifier() or keyword.iskeyword(name):
-        raise ExpressionError("not a valid name (letters, digits and '_', not a keyword)", str(name))
+        raise ExpressionError("not a valid name (letters, digits and '_', not a keyword)",
+                              str(name))
     if name.startswith("_"):
         raise ExpressionError("names may not start with '_'", name)
     if name in RESERVED_NAMES:
@@ -296,10 +297,10 @@ def parse_expression(text: str, symbols: Mapping[str, sp.Expr]) -> sp.Expr:
     >>> v, e = sp.symbols("v e", real=True)
     >>> parse_expression("-e*v", {"v": v, "e": e})
     -e*v
-    >>> parse_expression("__import__('os').system('touch /tmp/x')", {})
+    >>> parse_expression("__import__('os')", {})
     Traceback (most recent call last):
     ...
-    hybridlab.errors.ExpressionError: only the built-in functions can be called (token "__import__('os').system")
+    hybridlab.errors.ExpressionError: unknown function (token '__import__')
     """
     return _Builder(text, symbols).expr(_parse_tree(text))
 

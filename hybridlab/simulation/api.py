@@ -80,7 +80,7 @@ def simulate(
     >>> ball = hybridlab.load_model("models/bouncing_ball.toml")
     >>> result = hybridlab.simulate(ball, t_end=3.0)
     >>> result.status.name, round(result.events[0].t, 9)
-    ('COMPLETED', 1.427843014)
+    ('COMPLETED', 1.427843123)
     >>> result.events[0].post["v"] > 0
     True
     """

@@ -484,5 +484,5 @@ class _Run:
 
 def run(compiled: CompiledModel, *, t0: float, x0: np.ndarray, mode: str, t_end: float,
         p: np.ndarray, options: SimulationOptions) -> SimulationResult:
-    """Simulate ``compiled`` from ``(t0, x0, mode)`` to ``t_end``; see :func:`hybridlab.simulate`."""
+    """Simulate ``compiled`` from ``(t0, x0, mode)`` to ``t_end`` (see ``hybridlab.simulate``)."""
     return _Run(compiled, p, options, t_end).run(t0, x0, mode)

@@ -68,5 +68,5 @@ class ZenoTracker:
         remaining = dwell[-1] * r / (1.0 - r)
         scale = max(1.0, abs(t))
         if remaining <= self.tol * scale or dwell[-1] <= self.time_resolution * scale:
-            return ZenoVerdict(name, self._counts[name], r, t + remaining)
+            return ZenoVerdict(name, self._counts[name], r, float(t + remaining))
         return None
