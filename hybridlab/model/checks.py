@@ -24,19 +24,42 @@ from hybridlab.model.expressions import (
 if TYPE_CHECKING:
     from hybridlab.model.schema import Model
 
-__all__ = ["SymbolicMode", "SymbolicTransition", "SymbolicModel", "build_symbolic", "TIME"]
+__all__ = [
+    "SymbolicMechanics",
+    "SymbolicMode",
+    "SymbolicTransition",
+    "SymbolicModel",
+    "build_symbolic",
+    "TIME",
+]
 
 #: The reserved time symbol.
 TIME = sp.Symbol("t", real=True)
 
 
 @dataclass(frozen=True)
+class SymbolicMechanics:
+    """The ``[mechanics]`` section in sympy form (indices are state positions)."""
+
+    coordinates: tuple[int, ...]
+    velocities: tuple[int, ...]
+    kinetic: sp.Expr
+    potential: sp.Expr
+
+
+@dataclass(frozen=True)
 class SymbolicMode:
-    """A mode in sympy form: ``flow[i]`` is the derivative of state ``i``."""
+    """A mode in sympy form.
+
+    ``flow[i]`` is the derivative of state ``i``, or ``None`` where the
+    ``[mechanics]`` section derives it; ``forces[k]`` is the generalised force
+    on coordinate ``k`` in this mode.
+    """
 
     name: str
-    flow: tuple[sp.Expr, ...]
+    flow: tuple[sp.Expr | None, ...]
     invariants: tuple[Inequality, ...]
+    forces: tuple[sp.Expr, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -69,6 +92,7 @@ class SymbolicModel:
     definitions: Mapping[str, sp.Expr]
     modes: Mapping[str, SymbolicMode]
     transitions: tuple[SymbolicTransition, ...]
+    mechanics: SymbolicMechanics | None = None
 
     @property
     def time(self) -> sp.Symbol:
@@ -80,7 +104,7 @@ class SymbolicModel:
         names: dict[str, sp.Expr] = {"t": TIME}
         names.update(zip(self.parameter_names, self.parameters, strict=True))
         names.update(zip(self.state_names, self.states, strict=True))
-        names.update(self.definitions)
+        names.update({k: v for k, v in self.definitions.items()})
         return names
 
 
@@ -102,7 +126,8 @@ def _relations(text: str, names: Mapping[str, sp.Expr], key: str) -> tuple[Inequ
         raise _fail(exc.message, key, exc.token) from None
 
 
-def _declared_names(model: Model) -> None:
+def _declared_names(model: Model) -> set[str]:
+    """Check every declared name; return the names of mode-local definitions."""
     seen: dict[str, str] = {}
     for section in ("parameters", "states", "definitions"):
         for name in getattr(model, section):
@@ -113,16 +138,29 @@ def _declared_names(model: Model) -> None:
             if name in seen:
                 raise _fail(f"name already declared in [{seen[name]}]", f"{section}.{name}", name)
             seen[name] = section
+    local: set[str] = set()
+    for mode_name, mode in model.modes.items():
+        for name in mode.definitions:
+            key = f"modes.{mode_name}.definitions.{name}"
+            try:
+                check_name(name)
+            except ExpressionError as exc:
+                raise _fail(exc.message, key, exc.token) from None
+            if name in seen:
+                raise _fail(f"name already declared in [{seen[name]}]", key, name)
+            local.add(name)
+    return local
 
 
-def _definitions(model: Model, base: dict[str, sp.Expr]) -> dict[str, sp.Expr]:
+def _definitions(texts: Mapping[str, str], base: dict[str, sp.Expr],
+                 prefix: str) -> dict[str, sp.Expr]:
     """Parse definitions in dependency order; a cycle is an error."""
-    placeholders = {name: sp.Symbol(f"_def_{name}", real=True) for name in model.definitions}
+    placeholders = {name: sp.Symbol(f"_def_{name}", real=True) for name in texts}
     names = {**base, **placeholders}
     graph = nx.DiGraph()
     raw: dict[str, sp.Expr] = {}
-    for name, text in model.definitions.items():
-        expr = _parse(text, names, f"definitions.{name}")
+    for name, text in texts.items():
+        expr = _parse(text, names, f"{prefix}.{name}")
         raw[name] = expr
         graph.add_node(name)
         for other, symbol in placeholders.items():
@@ -134,12 +172,66 @@ def _definitions(model: Model, base: dict[str, sp.Expr]) -> dict[str, sp.Expr]:
         cycle = None
     if cycle:
         names_in_cycle = " -> ".join([edge[0] for edge in cycle] + [cycle[0][0]])
-        raise _fail("definitions refer to each other in a cycle", f"definitions.{cycle[0][1]}",
+        raise _fail("definitions refer to each other in a cycle", f"{prefix}.{cycle[0][1]}",
                     names_in_cycle)
     resolved: dict[str, sp.Expr] = {}
     for name in nx.topological_sort(graph):
         resolved[name] = raw[name].xreplace({placeholders[k]: v for k, v in resolved.items()})
-    return {name: resolved[name] for name in model.definitions}
+    return {name: resolved[name] for name in texts}
+
+
+def _local_symbol(name: str) -> sp.Symbol:
+    return sp.Symbol(f"_local_{name}", real=True)
+
+
+class _ModeScope:
+    """Substitutes a mode's local definitions; a missing one is an error."""
+
+    def __init__(self, mode_name: str, local: dict[str, sp.Expr], all_local: set[str]) -> None:
+        self.mode_name = mode_name
+        self.mapping = {_local_symbol(n): e for n, e in local.items()}
+        self.missing = {_local_symbol(n): n for n in all_local if n not in local}
+
+    def apply(self, expr: sp.Expr, key: str) -> sp.Expr:
+        expr = expr.xreplace(self.mapping)
+        for symbol, name in self.missing.items():
+            if expr.has(symbol):
+                raise _fail(f"{name!r} is defined in other modes but not in mode "
+                            f"{self.mode_name!r}", key, name)
+        return expr
+
+
+def _mechanics(model: Model, names: Mapping[str, sp.Expr]) -> SymbolicMechanics | None:
+    mech = model.mechanics
+    if mech is None:
+        return None
+    state_names = list(model.states)
+    for role in ("coordinates", "velocities"):
+        for i, name in enumerate(getattr(mech, role)):
+            if name not in model.states:
+                raise _fail(f"mechanics {role} must be declared states", f"mechanics.{role}[{i}]",
+                            name)
+    if len(mech.coordinates) != len(mech.velocities):
+        raise _fail("mechanics needs one velocity per coordinate", "mechanics.velocities",
+                    str(len(mech.velocities)))
+    if not mech.coordinates:
+        raise _fail("mechanics needs at least one coordinate", "mechanics.coordinates")
+    all_names = [*mech.coordinates, *mech.velocities]
+    duplicate = next((n for n in all_names if all_names.count(n) > 1), None)
+    if duplicate:
+        raise _fail("a state is used twice in mechanics", "mechanics", duplicate)
+    for coordinate in mech.forces:
+        if coordinate not in mech.coordinates:
+            raise _fail("force on an unknown coordinate", f"mechanics.forces.{coordinate}",
+                        coordinate)
+    global_names = {k: v for k, v in names.items() if not str(k).startswith("_")}
+    kinetic = _parse(mech.kinetic, global_names, "mechanics.kinetic")
+    potential = _parse(mech.potential, global_names, "mechanics.potential")
+    return SymbolicMechanics(
+        coordinates=tuple(state_names.index(n) for n in mech.coordinates),
+        velocities=tuple(state_names.index(n) for n in mech.velocities),
+        kinetic=kinetic, potential=potential,
+    )
 
 
 def build_symbolic(model: Model) -> SymbolicModel:
@@ -150,7 +242,7 @@ def build_symbolic(model: Model) -> SymbolicModel:
     ModelError
         The first problem found, with key path and token.
     """
-    _declared_names(model)
+    all_local = _declared_names(model)
     state_names = tuple(model.states)
     parameter_names = tuple(model.parameters)
     states = tuple(sp.Symbol(n, real=True) for n in state_names)
@@ -158,28 +250,49 @@ def build_symbolic(model: Model) -> SymbolicModel:
     base: dict[str, sp.Expr] = {"t": TIME}
     base.update(zip(parameter_names, parameters, strict=True))
     base.update(zip(state_names, states, strict=True))
-    definitions = _definitions(model, base)
-    names = {**base, **definitions}
+    base_with_local = {**base, **{n: _local_symbol(n) for n in all_local}}
+    definitions = _definitions(model.definitions, base_with_local, "definitions")
+    names = {**base_with_local, **definitions}
     if not state_names:
         raise _fail("a model needs at least one state", "states")
     if not model.modes:
         raise _fail("a model needs at least one mode", "modes")
+    mechanics = _mechanics(model, {**base, **definitions})
+    mech_states = set()
+    if model.mechanics is not None:
+        mech_states = {*model.mechanics.coordinates, *model.mechanics.velocities}
+    force_texts = model.mechanics.forces if model.mechanics else {}
 
     modes: dict[str, SymbolicMode] = {}
+    scopes: dict[str, _ModeScope] = {}
     for mode_name, mode in model.modes.items():
         key = f"modes.{mode_name}"
+        local = _definitions(mode.definitions, names, f"{key}.definitions")
+        scope = _ModeScope(mode_name, local, all_local)
+        scopes[mode_name] = scope
         for state in mode.flow:
             if state not in model.states:
                 raise _fail("flow given for an unknown state", f"{key}.flow.{state}", state)
-        missing = [s for s in state_names if s not in mode.flow]
+        missing = [s for s in state_names if s not in mode.flow and s not in mech_states]
         if missing:
             raise _fail(f"state {missing[0]!r} has no flow in mode {mode_name!r}",
                         f"{key}.flow", missing[0])
-        flow = tuple(_parse(mode.flow[s], names, f"{key}.flow.{s}") for s in state_names)
+        flow = tuple(
+            scope.apply(_parse(mode.flow[s], names, f"{key}.flow.{s}"), f"{key}.flow.{s}")
+            if s in mode.flow else None
+            for s in state_names
+        )
         invariants: list[Inequality] = []
         for i, text in enumerate(mode.invariant):
-            invariants.extend(_relations(text, names, f"{key}.invariant[{i}]"))
-        modes[mode_name] = SymbolicMode(mode_name, flow, tuple(invariants))
+            k = f"{key}.invariant[{i}]"
+            invariants.extend(Inequality(scope.apply(r.expr, k), r.strict, r.text)
+                              for r in _relations(text, names, k))
+        forces = tuple(
+            scope.apply(_parse(force_texts[c], names, f"mechanics.forces.{c}"),
+                        f"mechanics.forces.{c}") if c in force_texts else sp.Integer(0)
+            for c in (model.mechanics.coordinates if model.mechanics else ())
+        )
+        modes[mode_name] = SymbolicMode(mode_name, flow, tuple(invariants), forces)
 
     transitions: list[SymbolicTransition] = []
     seen_names: set[str] = set()
@@ -194,14 +307,18 @@ def build_symbolic(model: Model) -> SymbolicModel:
                 raise _fail(f"transition {role} is not a mode", f"{key}.{role}", mode_name)
         if not tr.guard and tr.schedule is None:
             raise _fail("a transition needs a guard or a schedule", f"{key}.guard", tr.name)
+        scope = scopes[tr.source]
         guard: list[Inequality] = []
         for i, text in enumerate(tr.guard):
-            guard.extend(_relations(text, names, f"{key}.guard[{i}]"))
+            k = f"{key}.guard[{i}]"
+            guard.extend(Inequality(scope.apply(r.expr, k), r.strict, r.text)
+                         for r in _relations(text, names, k))
         for state in tr.reset:
             if state not in model.states:
                 raise _fail("reset of an unknown state", f"{key}.reset.{state}", state)
         reset = tuple(
-            _parse(tr.reset[s], names, f"{key}.reset.{s}") if s in tr.reset else sym
+            scope.apply(_parse(tr.reset[s], names, f"{key}.reset.{s}"), f"{key}.reset.{s}")
+            if s in tr.reset else sym
             for s, sym in zip(state_names, states, strict=True)
         )
         transitions.append(SymbolicTransition(
@@ -235,4 +352,5 @@ def build_symbolic(model: Model) -> SymbolicModel:
         definitions=definitions,
         modes=modes,
         transitions=tuple(transitions),
+        mechanics=mechanics,
     )

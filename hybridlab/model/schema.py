@@ -27,6 +27,7 @@ __all__ = [
     "Transition",
     "Initial",
     "Scenario",
+    "Mechanics",
     "Model",
 ]
 
@@ -92,14 +93,45 @@ class State(_Frozen):
 class Mode(_Frozen):
     """A discrete mode: a flow expression for every state, and invariants.
 
+    States that a ``[mechanics]`` section governs need no flow here (a flow
+    given here overrides the derived one in this mode). ``definitions`` are
+    local to the mode: global definitions, mechanics forces, this mode's
+    flows, invariants and the guards and resets of transitions leaving it may
+    use them.
+
     Examples
     --------
     >>> Mode(flow={"h": "v", "v": "-g"}, invariant="h >= 0").invariant
     ['h >= 0']
     """
 
-    flow: dict[str, Expression]
+    flow: dict[str, Expression] = Field(default_factory=dict)
     invariant: Relations = Field(default_factory=list)
+    definitions: dict[str, Expression] = Field(default_factory=dict)
+    description: str = ""
+
+
+class Mechanics(_Frozen):
+    """A mechanical system whose flow hybridlab derives with Lagrange's equations.
+
+    With generalised coordinates ``q`` and their velocities ``u`` (both
+    declared states), ``L = kinetic - potential`` and the generalised
+    non-conservative forces ``Q``, the flow is ``q' = u`` and ``u'`` solves
+    ``d/dt(dL/du) - dL/dq = Q``. Forces may contain ``sign(...)`` (friction);
+    they become switching surfaces like any discontinuous flow.
+
+    Examples
+    --------
+    >>> Mechanics(coordinates=["phi"], velocities=["omega"], kinetic="J*omega**2/2",
+    ...           potential="-m*g*l*cos(phi)", forces={"phi": "-b*omega"}).coordinates
+    ['phi']
+    """
+
+    coordinates: list[str]
+    velocities: list[str]
+    kinetic: Expression
+    potential: Expression = "0"
+    forces: dict[str, Expression] = Field(default_factory=dict)
     description: str = ""
 
 
@@ -198,6 +230,7 @@ class Model(_Frozen):
     parameters: dict[str, ParameterField] = Field(default_factory=dict)
     states: dict[str, StateField]
     definitions: dict[str, Expression] = Field(default_factory=dict)
+    mechanics: Mechanics | None = None
     modes: dict[str, Mode]
     transitions: list[Transition] = Field(default_factory=list)
     initial: Initial

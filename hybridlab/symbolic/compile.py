@@ -13,6 +13,7 @@ from hybridlab.model.checks import TIME, SymbolicModel
 from hybridlab.model.schema import Model
 from hybridlab.symbolic.discontinuities import Switch, extract_switches
 from hybridlab.symbolic.functions import MatrixFunction, VectorFunction
+from hybridlab.symbolic.lagrange import LagrangeEquations, lagrange_equations, mode_flow
 
 __all__ = ["ScalarFields", "CompiledMode", "CompiledTransition", "CompiledModel", "compile_model"]
 
@@ -146,9 +147,10 @@ def _affine_in(exprs: Sequence[sp.Expr], symbols: Sequence[sp.Symbol]) -> bool:
     return all(sp.diff(e, a, b) == 0 for e in exprs for a in symbols for b in symbols)
 
 
-def _compile_mode(sym: SymbolicModel, name: str) -> CompiledMode:
+def _compile_mode(sym: SymbolicModel, name: str,
+                  equations: LagrangeEquations | None) -> CompiledMode:
     mode = sym.modes[name]
-    smooth, switches = extract_switches(mode.flow, prefix="_sigma")
+    smooth, switches = extract_switches(mode_flow(sym, name, equations), prefix="_sigma")
     sigmas = [s.symbol for s in switches]
     args = (TIME, sym.states, sym.parameters, sigmas)
     flow_matrix = sp.Matrix(smooth)
@@ -215,9 +217,15 @@ def compile_model(model: Model) -> CompiledModel:
     if sym is None:
         raise ModelError("model has not been checked")
     transitions = tuple(_compile_transition(sym, i) for i in range(len(sym.transitions)))
+    equations = None
+    if sym.mechanics is not None:
+        mech = sym.mechanics
+        equations = lagrange_equations(mech.kinetic, mech.potential,
+                                       [sym.states[i] for i in mech.coordinates],
+                                       [sym.states[i] for i in mech.velocities])
     modes = {}
     for name in sym.modes:
-        compiled = _compile_mode(sym, name)
+        compiled = _compile_mode(sym, name, equations)
         outgoing = tuple(sorted((tr for tr in transitions if tr.source == name),
                                 key=lambda tr: tr.order_key))
         modes[name] = CompiledMode(**{**compiled.__dict__, "outgoing": outgoing})

@@ -1,0 +1,124 @@
+"""Equations of motion from a Lagrangian, derived in sympy.
+
+For generalised coordinates ``q``, velocities ``u = q'``, ``L = T - V`` and
+generalised non-conservative forces ``Q``::
+
+    d/dt (dL/du_i) - dL/dq_i = Q_i
+    <=>  M(q, u, t) u' = Q + dL/dq - (d2L/du dq) u - d2L/du dt
+
+with the mass matrix ``M_ij = d2L / du_i du_j``. The accelerations are
+obtained by solving this linear system symbolically (LU), once per model;
+the forces enter as placeholders and are substituted mode by mode.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import sympy as sp
+
+from hybridlab.errors import CompilationError
+from hybridlab.model.checks import TIME, SymbolicModel
+
+__all__ = ["LagrangeEquations", "lagrange_equations", "mode_flow"]
+
+
+@dataclass(frozen=True)
+class LagrangeEquations:
+    """Mass matrix, right-hand side and solved accelerations of a Lagrangian system.
+
+    Attributes
+    ----------
+    mass_matrix : sympy.Matrix
+    rhs : sympy.Matrix
+        ``M u' = rhs``; contains the force placeholders ``forces``.
+    accelerations : tuple of sympy.Expr
+        ``u'`` as functions of ``t, q, u`` and the placeholders.
+    forces : tuple of sympy.Symbol
+        One placeholder per coordinate.
+    """
+
+    mass_matrix: sp.Matrix
+    rhs: sp.Matrix
+    accelerations: tuple[sp.Expr, ...]
+    forces: tuple[sp.Symbol, ...]
+
+    def residuals(self, accelerations: Sequence[sp.Expr]) -> list[sp.Expr]:
+        """``M a - rhs`` for given acceleration symbols ``a``: zero on the solution."""
+        a = sp.Matrix(list(accelerations))
+        return list(self.mass_matrix * a - self.rhs)
+
+
+def lagrange_equations(kinetic: sp.Expr, potential: sp.Expr, coordinates: Sequence[sp.Symbol],
+                       velocities: Sequence[sp.Symbol], t: sp.Symbol = TIME,
+                       solve: bool = True) -> LagrangeEquations:
+    """Derive the equations of motion.
+
+    Parameters
+    ----------
+    kinetic, potential : sympy.Expr
+        Kinetic and potential energy in terms of ``coordinates`` and ``velocities``.
+    coordinates, velocities : sequence of sympy.Symbol
+    t : sympy.Symbol
+        Time (energies may depend on it explicitly).
+    solve : bool
+        Also solve for the accelerations.
+
+    Raises
+    ------
+    CompilationError
+        If the mass matrix is singular.
+
+    Examples
+    --------
+    A pendulum of length ``l`` and mass ``m``:
+
+    >>> phi, w, m, g, l = sp.symbols("phi w m g l", positive=True)
+    >>> eq = lagrange_equations(m*l**2*w**2/2, -m*g*l*sp.cos(phi), [phi], [w])
+    >>> sp.simplify(eq.accelerations[0])
+    (-g*m*l*sin(phi) + _Q0)/(l**2*m)
+    """
+    q, u = list(coordinates), list(velocities)
+    n = len(q)
+    lagrangian = kinetic - potential
+    forces = tuple(sp.Symbol(f"_Q{i}", real=True) for i in range(n))
+    d_du = [sp.diff(lagrangian, ui) for ui in u]
+    mass = sp.Matrix(n, n, lambda i, j: sp.diff(d_du[i], u[j]))
+    rhs = sp.Matrix([
+        forces[i] + sp.diff(lagrangian, q[i])
+        - sum(sp.diff(d_du[i], q[j]) * u[j] for j in range(n)) - sp.diff(d_du[i], t)
+        for i in range(n)
+    ])
+    if mass.has(*forces):
+        raise CompilationError("the kinetic energy must not depend on the forces")
+    accelerations: tuple[sp.Expr, ...] = ()
+    if solve:
+        det = sp.simplify(mass.det())
+        if det == 0:
+            raise CompilationError("mechanics: the mass matrix d2T/du2 is singular; check that "
+                                   "the kinetic energy involves every velocity")
+        accelerations = tuple(mass.LUsolve(rhs))
+    return LagrangeEquations(mass, rhs, accelerations, forces)
+
+
+def mode_flow(sym: SymbolicModel, mode_name: str,
+              equations: LagrangeEquations | None) -> tuple[sp.Expr, ...]:
+    """The full flow of a mode: its own expressions plus the derived mechanics.
+
+    A flow the mode states explicitly wins over the derived one.
+    """
+    mode = sym.modes[mode_name]
+    flow = list(mode.flow)
+    mech = sym.mechanics
+    if mech is not None and equations is not None:
+        forces = dict(zip(equations.forces, mode.forces, strict=True))
+        for k, (iq, iu) in enumerate(zip(mech.coordinates, mech.velocities, strict=True)):
+            if flow[iq] is None:
+                flow[iq] = sym.states[iu]
+            if flow[iu] is None:
+                flow[iu] = equations.accelerations[k].xreplace(forces)
+    missing = [sym.state_names[i] for i, f in enumerate(flow) if f is None]
+    if missing:  # the model layer guarantees this cannot happen
+        raise CompilationError(f"mode {mode_name!r}: no flow for {', '.join(missing)}")
+    return tuple(flow)
