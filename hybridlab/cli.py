@@ -66,9 +66,10 @@ def _summary(model: Model) -> str:
     for tr in model.transitions:
         when = " and ".join(tr.guard) or "-"
         if tr.schedule:
-            when += f" every {tr.schedule.period:g}"
+            when += f" every {tr.schedule.period}"
         prio = "" if tr.priority is None else f" priority {tr.priority}"
-        lines.append(f"    {tr.name}: {tr.source} -> {tr.target} when {when}{prio}")
+        source = tr.source if isinstance(tr.source, str) else ", ".join(tr.source)
+        lines.append(f"    {tr.name}: {source} -> {tr.target} when {when}{prio}")
     if model.scenarios:
         lines.append("  scenarios: " + ", ".join(f"{k} (t_end {v.t_end:g})"
                                                 for k, v in model.scenarios.items()))

@@ -26,11 +26,12 @@ def mode_graph(model: Model) -> nx.MultiDiGraph:
     for name, mode in model.modes.items():
         graph.add_node(name, flow=dict(mode.flow), invariant=list(mode.invariant),
                        initial=name == model.initial.mode)
-    for tr in model.transitions:
-        schedule = (f"every {tr.schedule.period:g} from {tr.schedule.phase:g}"
-                    if tr.schedule else "")
+    for tr in model.symbolic.transitions:
+        declared = model.transitions[tr.declared]
+        schedule = (f"every {declared.schedule.period} from {declared.schedule.phase}"
+                    if declared.schedule else "")
         graph.add_edge(tr.source, tr.target, key=tr.name, name=tr.name,
-                       guard=" and ".join(tr.guard), reset=dict(tr.reset),
+                       guard=" and ".join(declared.guard), reset=dict(declared.reset),
                        priority=tr.priority, schedule=schedule)
     return graph
 

@@ -73,8 +73,9 @@ class SymbolicTransition:
     guard: tuple[Inequality, ...]
     reset: tuple[sp.Expr, ...]
     priority: int | None
-    period: float | None
-    phase: float
+    period: sp.Expr | None
+    phase: sp.Expr
+    declared: int = 0
 
 
 @dataclass(frozen=True)
@@ -178,6 +179,12 @@ def _definitions(texts: Mapping[str, str], base: dict[str, sp.Expr],
     for name in nx.topological_sort(graph):
         resolved[name] = raw[name].xreplace({placeholders[k]: v for k, v in resolved.items()})
     return {name: resolved[name] for name in texts}
+
+
+def _schedule_value(value: float | str, parameters: Mapping[str, sp.Expr], key: str) -> sp.Expr:
+    if isinstance(value, int | float):
+        return sp.Float(value)
+    return _parse(value, parameters, key)
 
 
 def _local_symbol(name: str) -> sp.Symbol:
@@ -296,37 +303,52 @@ def build_symbolic(model: Model) -> SymbolicModel:
 
     transitions: list[SymbolicTransition] = []
     seen_names: set[str] = set()
-    for index, tr in enumerate(model.transitions):
-        key = f"transitions[{index}]"
+    parameter_names_map = dict(zip(parameter_names, parameters, strict=True))
+    for declared, tr in enumerate(model.transitions):
+        key = f"transitions[{declared}]"
         if tr.name in seen_names:
             raise _fail("transition name used twice", f"{key}.name", tr.name)
         seen_names.add(tr.name)
-        for role in ("source", "target"):
-            mode_name = getattr(tr, role)
+        sources = list(model.modes) if tr.source == "*" else (
+            [tr.source] if isinstance(tr.source, str) else list(tr.source))
+        if not sources:
+            raise _fail("a transition needs at least one source mode", f"{key}.source")
+        for i, mode_name in enumerate(sources):
             if mode_name not in model.modes:
-                raise _fail(f"transition {role} is not a mode", f"{key}.{role}", mode_name)
+                where = f"{key}.source" if isinstance(tr.source, str) else f"{key}.source[{i}]"
+                raise _fail("transition source is not a mode", where, mode_name)
+        if tr.target != "*" and tr.target not in model.modes:
+            raise _fail("transition target is not a mode", f"{key}.target", tr.target)
         if not tr.guard and tr.schedule is None:
             raise _fail("a transition needs a guard or a schedule", f"{key}.guard", tr.name)
-        scope = scopes[tr.source]
-        guard: list[Inequality] = []
-        for i, text in enumerate(tr.guard):
-            k = f"{key}.guard[{i}]"
-            guard.extend(Inequality(scope.apply(r.expr, k), r.strict, r.text)
-                         for r in _relations(text, names, k))
         for state in tr.reset:
             if state not in model.states:
                 raise _fail("reset of an unknown state", f"{key}.reset.{state}", state)
-        reset = tuple(
-            scope.apply(_parse(tr.reset[s], names, f"{key}.reset.{s}"), f"{key}.reset.{s}")
-            if s in tr.reset else sym
-            for s, sym in zip(state_names, states, strict=True)
-        )
-        transitions.append(SymbolicTransition(
-            index=index, name=tr.name, source=tr.source, target=tr.target,
-            guard=tuple(guard), reset=reset, priority=tr.priority,
-            period=tr.schedule.period if tr.schedule else None,
-            phase=tr.schedule.phase if tr.schedule else 0.0,
-        ))
+        period = phase = None
+        if tr.schedule is not None:
+            period, phase = (
+                _schedule_value(value, parameter_names_map, f"{key}.schedule.{field}")
+                for field, value in (("period", tr.schedule.period),
+                                     ("phase", tr.schedule.phase)))
+        for source in sources:
+            scope = scopes[source]
+            guard: list[Inequality] = []
+            for i, text in enumerate(tr.guard):
+                k = f"{key}.guard[{i}]"
+                guard.extend(Inequality(scope.apply(r.expr, k), r.strict, r.text)
+                             for r in _relations(text, names, k))
+            reset = tuple(
+                scope.apply(_parse(tr.reset[s], names, f"{key}.reset.{s}"), f"{key}.reset.{s}")
+                if s in tr.reset else sym
+                for s, sym in zip(state_names, states, strict=True)
+            )
+            transitions.append(SymbolicTransition(
+                index=len(transitions), name=tr.name, source=source,
+                target=source if tr.target == "*" else tr.target,
+                guard=tuple(guard), reset=reset, priority=tr.priority,
+                period=period, phase=phase if phase is not None else sp.Integer(0),
+                declared=declared,
+            ))
 
     if model.initial.mode not in model.modes:
         raise _fail("initial mode is not a mode", "initial.mode", model.initial.mode)

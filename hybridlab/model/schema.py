@@ -138,18 +138,29 @@ class Mechanics(_Frozen):
 class Schedule(_Frozen):
     """Time-scheduled firing: at ``phase + k * period`` for k = 0, 1, 2, ...
 
+    ``period`` and ``phase`` are numbers or expressions of parameters (so a
+    sampling rate can be a parameter). A period that evaluates to zero or
+    less disables the schedule.
+
     Examples
     --------
     >>> Schedule(period=0.001).phase
     0.0
+    >>> Schedule(period="T_s").period
+    'T_s'
     """
 
-    period: Annotated[float, Field(gt=0)]
-    phase: float = 0.0
+    period: float | Expression
+    phase: float | Expression = 0.0
 
 
 class Transition(_Frozen):
     """A discrete jump from ``source`` to ``target``.
+
+    ``source`` may be a list of modes or ``"*"`` (every mode), and ``target``
+    may be ``"*"`` (stay in the source mode): one declaration then stands for
+    a transition out of each of those modes, which is how a sensor that is
+    watched in every mode is written.
 
     A transition fires at the first instant its guard (all inequalities)
     holds; a scheduled transition fires at its scheduled instants, when its
@@ -165,7 +176,7 @@ class Transition(_Frozen):
     """
 
     name: Annotated[str, Field(min_length=1)]
-    source: str
+    source: str | list[str]
     target: str
     guard: Relations = Field(default_factory=list)
     reset: dict[str, Expression] = Field(default_factory=dict)

@@ -85,6 +85,9 @@ class _Run:
         self.sigma = _NO_SIGMA
         self.sliding: tuple[int, ...] = ()
         self.sched_done: dict[int, int] = {}
+        # (period, phase) of every enabled schedule, evaluated for this run's parameters
+        self.schedules = {tr.index: sched for tr in compiled.transitions
+                          if (sched := tr.period_and_phase(p)) is not None}
         self.h_last: float | None = None
         self.zeno = ZenoTracker(options.zeno_window, options.zeno_tol, 4 * options.event_tol)
         self.stats = {"steps": 0, "rejected_scans": 0, "refinements": 0, "events_located": 0,
@@ -127,18 +130,23 @@ class _Run:
 
     # ----- scheduled transitions -----------------------------------------------------------
     def _sched_index(self, tr: CompiledTransition, t: float) -> int:
-        assert tr.period is not None  # noqa: S101 - callers pass scheduled transitions only
-        k = math.ceil((t - tr.phase) / tr.period - 1e-9)
+        period, phase = self.schedules[tr.index]
+        k = math.ceil((t - phase) / period - 1e-9)
         return max(k, self.sched_done.get(tr.index, -1) + 1, 0)
 
+    def _sched_time(self, tr: CompiledTransition, k: int) -> float:
+        period, phase = self.schedules[tr.index]
+        return phase + k * period
+
     def next_scheduled(self, mode: CompiledMode, t: float) -> float:
-        times = [tr.phase + self._sched_index(tr, t) * tr.period
-                 for tr in mode.outgoing if tr.period is not None]
+        times = [self._sched_time(tr, self._sched_index(tr, t))
+                 for tr in mode.outgoing if tr.index in self.schedules]
         return min(times, default=math.inf)
 
     def due(self, tr: CompiledTransition, t: float) -> bool:
-        k = self._sched_index(tr, t)
-        return abs(tr.phase + k * tr.period - t) <= 2 * self.xtol(t)
+        if tr.index not in self.schedules:
+            return False
+        return abs(self._sched_time(tr, self._sched_index(tr, t)) - t) <= 2 * self.xtol(t)
 
     # ----- guards at an instant ------------------------------------------------------------
     def guard_state(self, tr: CompiledTransition, mode: CompiledMode, t: float,
@@ -153,7 +161,7 @@ class _Run:
 
     def enabled(self, tr: CompiledTransition, mode: CompiledMode, t: float, x: np.ndarray,
                 fresh: set[int], previous: int | None) -> bool:
-        if tr.period is not None:
+        if tr.scheduled:
             if not self.due(tr, t):
                 return False
             return tr.guard is None or self.guard_state(tr, mode, t, x)[0] >= 0
@@ -190,7 +198,7 @@ class _Run:
                      chosen.index in grazing)
             fired_now.add(chosen.index)
             previous = chosen.index
-            if chosen.period is not None:
+            if chosen.scheduled:
                 self.sched_done[chosen.index] = self._sched_index(chosen, t)
             else:
                 verdict = self.zeno.record(chosen.name, t)
@@ -205,7 +213,7 @@ class _Run:
             self.finish_zeno(f"{self.o.max_event_iterations} jumps at the same instant t = {t!r} "
                              f"(a zero-dwell cycle through {', '.join(names)})", t, t, x, mode)
         for tr in mode.outgoing:  # scheduled instants that passed without firing are consumed
-            if tr.period is not None and self.due(tr, t) and tr.index not in fired_now:
+            if self.due(tr, t) and tr.index not in fired_now:
                 self.sched_done[tr.index] = self._sched_index(tr, t)
         return mode, x, fired_now
 
@@ -219,7 +227,7 @@ class _Run:
     # ----- monitors ------------------------------------------------------------------------
     def monitors(self, mode: CompiledMode) -> list[_Monitor]:
         rows = [_Monitor("guard", tr.index) for tr in mode.outgoing
-                if tr.period is None and tr.guard is not None]
+                if not tr.scheduled and tr.guard is not None]
         rows += [_Monitor("invariant", k) for k in range(mode.invariants.size)]
         rows += [_Monitor("exit" if k in self.sliding else "switch", k)
                  for k in range(len(mode.switches))]
@@ -434,7 +442,7 @@ class _Run:
         if slope >= 0 and value >= -self.o.event_atol:
             return  # touched tangentially and stays inside
         waiting = [tr.name for tr in mode.outgoing
-                   if tr.guard is not None and tr.period is None
+                   if tr.guard is not None and not tr.scheduled
                    and self.guard_state(tr, mode, t, x)[0] >= 0]
         detail = (f"; transition(s) {', '.join(waiting)} hold but just fired (a zero-dwell "
                   "self-loop)" if waiting else "")
@@ -479,7 +487,7 @@ class _Run:
                                 self.names, zeno_time, dict(self.stats))
 
     def due_any(self, mode: CompiledMode, t: float) -> bool:
-        return any(tr.period is not None and self.due(tr, t) for tr in mode.outgoing)
+        return any(self.due(tr, t) for tr in mode.outgoing)
 
 
 def run(compiled: CompiledModel, *, t0: float, x0: np.ndarray, mode: str, t_end: float,

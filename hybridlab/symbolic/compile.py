@@ -66,11 +66,24 @@ class CompiledTransition:
     source: str
     target: str
     priority: int | None
-    period: float | None
-    phase: float
+    schedule: VectorFunction | None
     guard: ScalarFields | None
     guard_texts: tuple[str, ...]
     reset: VectorFunction
+
+    @property
+    def scheduled(self) -> bool:
+        """Whether this transition fires at scheduled instants."""
+        return self.schedule is not None
+
+    def period_and_phase(self, p: np.ndarray) -> tuple[float, float] | None:
+        """The schedule for parameters ``p``; ``None`` when disabled (period <= 0)."""
+        if self.schedule is None:
+            return None
+        period, phase = self.schedule(0.0, np.empty(0), p, np.empty(0))
+        if not (np.isfinite(period) and period > 0 and np.isfinite(phase)):
+            return None
+        return float(period), float(phase)
 
     @property
     def order_key(self) -> tuple[int, int, int]:
@@ -175,7 +188,9 @@ def _compile_transition(sym: SymbolicModel, index: int) -> CompiledTransition:
     guard_exprs = [rel.expr for rel in tr.guard]
     return CompiledTransition(
         index=tr.index, name=tr.name, source=tr.source, target=tr.target,
-        priority=tr.priority, period=tr.period, phase=tr.phase,
+        priority=tr.priority,
+        schedule=(VectorFunction([tr.period, tr.phase], TIME, (), sym.parameters, ())
+                  if tr.period is not None else None),
         guard=ScalarFields(guard_exprs, sym) if guard_exprs else None,
         guard_texts=tuple(rel.text for rel in tr.guard),
         reset=VectorFunction(tr.reset, TIME, sym.states, sym.parameters, ()),
