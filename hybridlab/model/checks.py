@@ -280,13 +280,18 @@ def build_symbolic(model: Model) -> SymbolicModel:
         for state in mode.flow:
             if state not in model.states:
                 raise _fail("flow given for an unknown state", f"{key}.flow.{state}", state)
-        missing = [s for s in state_names if s not in mode.flow and s not in mech_states]
+        missing = [s for s in state_names if s not in mode.flow and s not in mech_states
+                   and model.states[s].flow is None]
         if missing:
             raise _fail(f"state {missing[0]!r} has no flow in mode {mode_name!r}",
                         f"{key}.flow", missing[0])
+        flow_texts = {s: (mode.flow[s], f"{key}.flow.{s}") for s in mode.flow}
+        for s in state_names:
+            if s not in flow_texts and s not in mech_states and model.states[s].flow is not None:
+                flow_texts[s] = (model.states[s].flow, f"states.{s}.flow")
         flow = tuple(
-            scope.apply(_parse(mode.flow[s], names, f"{key}.flow.{s}"), f"{key}.flow.{s}")
-            if s in mode.flow else None
+            scope.apply(_parse(flow_texts[s][0], names, flow_texts[s][1]), flow_texts[s][1])
+            if s in flow_texts else None
             for s in state_names
         )
         invariants: list[Inequality] = []

@@ -79,6 +79,9 @@ class Parameter(_Frozen):
 class State(_Frozen):
     """A continuous state with its initial value.
 
+    ``flow`` is the default derivative, used by every mode that gives none
+    (a clock ``"1"``, a held value ``"0"``).
+
     Examples
     --------
     >>> State(initial=10.0, unit="m").initial
@@ -87,6 +90,7 @@ class State(_Frozen):
 
     initial: float
     unit: str = "1"
+    flow: Expression | None = None
     description: str = ""
 
 

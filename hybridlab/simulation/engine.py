@@ -286,21 +286,42 @@ class _Run:
         tau, phi, dphi, refinements = sample_step(t0, t1, batch, self.o.samples_per_step,
                                                   self.o.max_refine, self.o.event_atol)
         self.stats["refinements"] += refinements
-        xtol = self.xtol(t1)
+        xtol = self.xtol(min(abs(t0), abs(t1)))
+        cluster_width = 8 * xtol
+        # locate monitors in the order their first candidate interval starts, and stop once
+        # the rest can only fire after the earliest located event (plus the cluster width)
+        lower = np.minimum(phi[:, :-1], phi[:, 1:])
+        order = []
+        for r in range(len(rows)):
+            cand = np.nonzero(lower[r] <= self.o.event_atol)[0]
+            start = tau[cand[0]] if cand.size and armed[r] else t0
+            order.append((start, r))
+        order.sort()
         triggers: list[Trigger] = []
         new_armed = armed.copy()
-        for r in range(len(rows)):
+        earliest = math.inf
+        for start, r in order:
+            if start > earliest + cluster_width:
+                new_armed[r] = armed[r]
+                continue
+
             def value(t: float, r: int = r) -> float:
                 return float(batch(np.array([t]))[0][r, 0])
 
+            if math.isfinite(earliest) and armed[r]:
+                # a surface that coincides with an already located one needs no new search
+                at, before = value(earliest), value(earliest - cluster_width)
+                if at <= 0 < before:
+                    triggers.append(Trigger(r, earliest, False))
+                    continue
             trig, new_armed[r] = first_trigger(r, tau, phi[r], dphi[r], bool(armed[r]), value,
                                                xtol, self.o.event_atol, floors[r])
             if trig is not None:
                 triggers.append(trig)
+                earliest = min(earliest, trig.t)
         if not triggers:
             return [], new_armed
-        first = min(tr.t for tr in triggers)
-        cluster = [tr for tr in triggers if tr.t <= first + 8 * xtol]
+        cluster = [tr for tr in triggers if tr.t <= earliest + cluster_width]
         self.stats["events_located"] += len(cluster)
         return cluster, new_armed
 

@@ -21,7 +21,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import minimize_scalar
+from scipy.optimize import brentq, minimize_scalar
 
 __all__ = ["Trigger", "sample_step", "first_trigger", "locate_crossing", "hermite_extremes"]
 
@@ -165,36 +165,36 @@ def locate_crossing(fn: ValueFn, lo: float, hi: float, f_lo: float, f_hi: float,
                     xtol: float, max_iter: int = 200) -> float:
     """Shrink ``[lo, hi]`` with ``fn(lo) > 0 >= fn(hi)`` to width ``xtol``; return ``hi``.
 
-    Illinois-modified regula falsi, falling back to bisection, so the bracket
-    always shrinks and ``hi`` is never past the first crossing inside it.
+    Brent's method (:func:`scipy.optimize.brentq`) finds the root; the
+    returned time is then moved, if needed, to the side where the monitor has
+    reached zero, so it is never before the crossing and at most ``xtol``
+    after it.
 
     Examples
     --------
     >>> t = locate_crossing(lambda t: 2.0 - t * t, 0.0, 2.0, 2.0, -2.0, 1e-14)
-    >>> abs(t - 2 ** 0.5) < 1e-13
+    >>> abs(t - 2 ** 0.5) < 1e-13 and 2.0 - t * t <= 0
     True
     """
-    side = 0
+    if f_hi == 0.0 or hi - lo <= xtol:
+        return hi
+    root = brentq(fn, lo, hi, xtol=0.25 * xtol, rtol=4 * np.finfo(float).eps,
+                  maxiter=max_iter)
+    for candidate in (root, root + 0.25 * xtol, root + 0.5 * xtol):
+        if candidate >= hi:
+            return hi
+        if fn(candidate) <= 0:
+            return candidate
+    # noisy function near the root: finish by bisection on the guaranteed bracket
+    lo = max(lo, root - 0.5 * xtol) if fn(max(lo, root - 0.5 * xtol)) > 0 else lo
     for _ in range(max_iter):
         if hi - lo <= xtol:
             break
-        denom = f_lo - f_hi
-        mid = hi - f_hi * (hi - lo) / denom if denom > 0 else 0.5 * (lo + hi)
-        if not lo < mid < hi or (hi - lo) < 4 * xtol:
-            mid = 0.5 * (lo + hi)
-        # keep the interpolation point away from the ends so convergence is bracketed
-        mid = min(max(mid, lo + 0.25 * xtol), hi - 0.25 * xtol)
-        f_mid = fn(mid)
-        if f_mid > 0:
-            lo, f_lo = mid, f_mid
-            if side == -1:
-                f_hi *= 0.5
-            side = -1
+        mid = 0.5 * (lo + hi)
+        if fn(mid) > 0:
+            lo = mid
         else:
-            hi, f_hi = mid, f_mid
-            if side == 1:
-                f_lo *= 0.5
-            side = 1
+            hi = mid
     return hi
 
 

@@ -183,17 +183,25 @@ def _compile_mode(sym: SymbolicModel, name: str,
     )
 
 
-def _compile_transition(sym: SymbolicModel, index: int) -> CompiledTransition:
+def _compile_transition(sym: SymbolicModel, index: int, cache: dict) -> CompiledTransition:
+    """Compile one transition; identical guards and resets (a transition declared for
+    several modes) share their compiled functions through ``cache``."""
     tr = sym.transitions[index]
-    guard_exprs = [rel.expr for rel in tr.guard]
+    guard_exprs = tuple(rel.expr for rel in tr.guard)
+    guard_key = ("guard", guard_exprs)
+    if guard_exprs and guard_key not in cache:
+        cache[guard_key] = ScalarFields(guard_exprs, sym)
+    reset_key = ("reset", tr.reset)
+    if reset_key not in cache:
+        cache[reset_key] = VectorFunction(tr.reset, TIME, sym.states, sym.parameters, ())
     return CompiledTransition(
         index=tr.index, name=tr.name, source=tr.source, target=tr.target,
         priority=tr.priority,
         schedule=(VectorFunction([tr.period, tr.phase], TIME, (), sym.parameters, ())
                   if tr.period is not None else None),
-        guard=ScalarFields(guard_exprs, sym) if guard_exprs else None,
+        guard=cache[guard_key] if guard_exprs else None,
         guard_texts=tuple(rel.text for rel in tr.guard),
-        reset=VectorFunction(tr.reset, TIME, sym.states, sym.parameters, ()),
+        reset=cache[reset_key],
     )
 
 
@@ -231,7 +239,8 @@ def compile_model(model: Model) -> CompiledModel:
     sym = model.symbolic
     if sym is None:
         raise ModelError("model has not been checked")
-    transitions = tuple(_compile_transition(sym, i) for i in range(len(sym.transitions)))
+    cache: dict = {}
+    transitions = tuple(_compile_transition(sym, i, cache) for i in range(len(sym.transitions)))
     equations = None
     if sym.mechanics is not None:
         mech = sym.mechanics
