@@ -7,7 +7,7 @@ raises :class:`~hybridlab.errors.ModelError` naming the key path and token.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import networkx as nx
@@ -60,6 +60,17 @@ class SymbolicMode:
     flow: tuple[sp.Expr | None, ...]
     invariants: tuple[Inequality, ...]
     forces: tuple[sp.Expr, ...] = ()
+    local: Mapping[str, sp.Expr] = field(default_factory=dict)
+
+    def scoped(self, expr: sp.Expr, all_local: frozenset[str]) -> sp.Expr:
+        """``expr`` with this mode's local definitions substituted.
+
+        Raises
+        ------
+        ModelError
+            If ``expr`` uses a local definition this mode does not have.
+        """
+        return _ModeScope(self.name, dict(self.local), set(all_local)).apply(expr, "")
 
 
 @dataclass(frozen=True)
@@ -94,6 +105,7 @@ class SymbolicModel:
     modes: Mapping[str, SymbolicMode]
     transitions: tuple[SymbolicTransition, ...]
     mechanics: SymbolicMechanics | None = None
+    local_names: frozenset[str] = frozenset()
 
     @property
     def time(self) -> sp.Symbol:
@@ -101,11 +113,16 @@ class SymbolicModel:
         return TIME
 
     def namespace(self) -> dict[str, sp.Expr]:
-        """Every name an expression may use, mapped to its sympy form."""
+        """Every name an expression may use, mapped to its sympy form.
+
+        Mode-local definitions appear as placeholders; substitute them with
+        :meth:`SymbolicMode.scoped`.
+        """
         names: dict[str, sp.Expr] = {"t": TIME}
         names.update(zip(self.parameter_names, self.parameters, strict=True))
         names.update(zip(self.state_names, self.states, strict=True))
-        names.update({k: v for k, v in self.definitions.items()})
+        names.update({n: _local_symbol(n) for n in self.local_names})
+        names.update(self.definitions)
         return names
 
 
@@ -304,7 +321,7 @@ def build_symbolic(model: Model) -> SymbolicModel:
                         f"mechanics.forces.{c}") if c in force_texts else sp.Integer(0)
             for c in (model.mechanics.coordinates if model.mechanics else ())
         )
-        modes[mode_name] = SymbolicMode(mode_name, flow, tuple(invariants), forces)
+        modes[mode_name] = SymbolicMode(mode_name, flow, tuple(invariants), forces, local)
 
     transitions: list[SymbolicTransition] = []
     seen_names: set[str] = set()
@@ -380,4 +397,5 @@ def build_symbolic(model: Model) -> SymbolicModel:
         modes=modes,
         transitions=tuple(transitions),
         mechanics=mechanics,
+        local_names=frozenset(all_local),
     )

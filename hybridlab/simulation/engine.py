@@ -504,8 +504,9 @@ class _Run:
         if not self.segments or self.segments[-1].t_end < t or self.segments[-1].j != self.j:
             self.segments.append(Segment(mode.name, self.j, np.array([t]), x[:, None].copy()))
         final = FinalState(float(t), self.j, mode.name, self.state_map(x))
+        parameters = dict(zip(self.c.parameter_names, map(float, self.p), strict=True))
         return SimulationResult(status, message, tuple(self.events), tuple(self.segments), final,
-                                self.names, zeno_time, dict(self.stats))
+                                self.names, zeno_time, dict(self.stats), parameters, self.c)
 
     def due_any(self, mode: CompiledMode, t: float) -> bool:
         return any(self.due(tr, t) for tr in mode.outgoing)

@@ -147,6 +147,32 @@ class SimulationResult:
     state_names: tuple[str, ...]
     zeno_time: float | None = None
     stats: Mapping[str, int] = field(default_factory=dict)
+    parameters: Mapping[str, float] = field(default_factory=dict)
+    compiled: Any = field(default=None, repr=False, compare=False)
+
+    def observe(self, expressions: str | Sequence[str],
+                t: float | Sequence[float] | np.ndarray | None = None) -> np.ndarray:
+        """Evaluate model expressions (definitions included) along this result.
+
+        Parameters
+        ----------
+        expressions : str or sequence of str
+            E.g. ``"energy"`` or ``["x_ref - x", "F_in"]``; mode-local
+            definitions are taken from each segment's mode.
+        t : optional
+            Times; by default every stored point (:attr:`t`).
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape ``(k,)`` for one expression, ``(m, k)`` for several.
+        """
+        from hybridlab.simulation.observe import Observer
+
+        single = isinstance(expressions, str)
+        values = Observer(self.compiled, [expressions] if single else list(expressions)
+                          ).evaluate(self, t)
+        return values[0] if single else values
 
     # ----- views ---------------------------------------------------------------------------
     @property
