@@ -25,7 +25,12 @@ import numpy as np
 from scipy import integrate
 
 from hybridlab.errors import SimulationError, ZenoError
-from hybridlab.simulation.location import Trigger, first_trigger, sample_step
+from hybridlab.simulation.location import (
+    Trigger,
+    first_trigger,
+    hermite_extremes,
+    sample_step,
+)
 from hybridlab.simulation.options import SimulationOptions
 from hybridlab.simulation.result import Event, FinalState, Segment, SimulationResult, Status
 from hybridlab.simulation.sliding import equivalent_sigma, equivalent_sigma_batch, resolve_switches
@@ -248,20 +253,20 @@ class _Run:
             f = mode.flow.batch(tau, x, p, sigma)
         phi = np.empty((len(rows), tau.size))
         dphi = np.empty_like(phi)
-        inv = sw = None
+        cond = sw = None
+        if mode.conditions is not None:
+            cond = (mode.conditions.values.batch(tau, x, p, _NO_SIGMA),
+                    mode.conditions.batch_derivative(tau, x, p, _NO_SIGMA, f))
+        n_guard_rows = sum(sl.stop - sl.start for sl in mode.guard_rows.values())
+        cols = np.arange(tau.size)
         for r, row in enumerate(rows):
             if row.kind == "guard":
-                tr = self.c.transitions[row.ref]
-                g = tr.guard.values.batch(tau, x, p, _NO_SIGMA)
-                dg = tr.guard.batch_derivative(tau, x, p, _NO_SIGMA, f)
+                rows_of = mode.guard_rows[row.ref]
+                g, dg = cond[0][rows_of], cond[1][rows_of]
                 i = np.argmin(g, axis=0)
-                cols = np.arange(tau.size)
                 phi[r], dphi[r] = -g[i, cols], -dg[i, cols]
             elif row.kind == "invariant":
-                if inv is None:
-                    inv = (mode.invariants.values.batch(tau, x, p, _NO_SIGMA),
-                           mode.invariants.batch_derivative(tau, x, p, _NO_SIGMA, f))
-                phi[r], dphi[r] = inv[0][row.ref], inv[1][row.ref]
+                phi[r], dphi[r] = cond[0][n_guard_rows + row.ref], cond[1][n_guard_rows + row.ref]
             elif row.kind == "switch":
                 if sw is None:
                     sw = (mode.switch_fields.values.batch(tau, x, p, sigma),
@@ -273,6 +278,21 @@ class _Run:
                 phi[r] = value
                 dphi[r] = np.gradient(value, tau) if tau.size > 1 else 0.0
         return phi, dphi
+
+    def monitor_value(self, mode: CompiledMode, row: _Monitor, t: float, x: np.ndarray) -> float:
+        """One monitor's value at one point (the root finder's inner loop)."""
+        p = self.p
+        if row.kind == "guard":
+            return -float(np.min(mode.conditions.values(t, x, p, _NO_SIGMA)[
+                mode.guard_rows[row.ref]]))
+        if row.kind == "invariant":
+            offset = sum(sl.stop - sl.start for sl in mode.guard_rows.values())
+            return float(mode.conditions.values(t, x, p, _NO_SIGMA)[offset + row.ref])
+        if row.kind == "switch":
+            return float(self.sigma[row.ref]
+                         * mode.switch_fields.values(t, x, p, self.sigma)[row.ref])
+        eq = equivalent_sigma(mode, t, x, p, self.sigma, self.sliding)
+        return 1.0 - abs(float(eq[self.sliding.index(row.ref)]))
 
     def scan(self, mode: CompiledMode, rows: list[_Monitor], armed: np.ndarray,
              floors: list[float | None], dense, t0: float,
@@ -290,11 +310,23 @@ class _Run:
         cluster_width = 8 * xtol
         # locate monitors in the order their first candidate interval starts, and stop once
         # the rest can only fire after the earliest located event (plus the cluster width)
-        lower = np.minimum(phi[:, :-1], phi[:, 1:])
+        tol = self.o.event_atol
+        h = np.diff(tau)[None, :]
+        extremes = hermite_extremes(h, phi[:, :-1], phi[:, 1:], dphi[:, :-1], dphi[:, 1:])
+        lower = np.minimum(np.minimum(phi[:, :-1], phi[:, 1:]), extremes[0])
+        upper = np.maximum(np.maximum(phi[:, :-1], phi[:, 1:]), extremes[2])
         order = []
         for r in range(len(rows)):
-            cand = np.nonzero(lower[r] <= self.o.event_atol)[0]
-            start = tau[cand[0]] if cand.size and armed[r] else t0
+            if armed[r]:
+                cand = np.nonzero(lower[r] <= tol)[0]
+                if cand.size == 0:
+                    continue  # stays above zero throughout the step
+                start = tau[cand[0]]
+            else:
+                sinking = floors[r] is not None and np.any(lower[r] <= floors[r])
+                if not sinking and not np.any(upper[r] > tol):
+                    continue  # stays disarmed and above its floor
+                start = t0
             order.append((start, r))
         order.sort()
         triggers: list[Trigger] = []
@@ -306,7 +338,7 @@ class _Run:
                 continue
 
             def value(t: float, r: int = r) -> float:
-                return float(batch(np.array([t]))[0][r, 0])
+                return self.monitor_value(mode, rows[r], t, dense(t))
 
             if math.isfinite(earliest) and armed[r]:
                 # a surface that coincides with an already located one needs no new search
@@ -315,7 +347,8 @@ class _Run:
                     triggers.append(Trigger(r, earliest, False))
                     continue
             trig, new_armed[r] = first_trigger(r, tau, phi[r], dphi[r], bool(armed[r]), value,
-                                               xtol, self.o.event_atol, floors[r])
+                                               xtol, tol, floors[r],
+                                               tuple(e[r] for e in extremes))
             if trig is not None:
                 triggers.append(trig)
                 earliest = min(earliest, trig.t)

@@ -75,12 +75,13 @@ def hermite_extremes(h: np.ndarray, fa: np.ndarray, fb: np.ndarray, da: np.ndarr
         candidates.append(np.where(inside, r, 0.0))
     s = np.stack(candidates)
     values = c0 + s * (c1 + s * (c2 + s * c3))
-    i_min = np.argmin(values, axis=0)
-    i_max = np.argmax(values, axis=0)
-    cols = np.arange(values.shape[1]) if values.ndim == 2 else ()
-    if values.ndim == 1:
-        return (values[i_min], s[i_min], values[i_max], s[i_max])
-    return (values[i_min, cols], s[i_min, cols], values[i_max, cols], s[i_max, cols])
+    i_min = np.argmin(values, axis=0)[None]
+    i_max = np.argmax(values, axis=0)[None]
+
+    def pick(a: np.ndarray, i: np.ndarray) -> np.ndarray:
+        return np.take_along_axis(a, i, axis=0)[0]
+
+    return pick(values, i_min), pick(s, i_min), pick(values, i_max), pick(s, i_max)
 
 
 _CHECK_AT = 0.41421356237309515  # sqrt(2) - 1: an irrational split keeps grids from aliasing
@@ -236,8 +237,8 @@ def _search(candidates: np.ndarray, tau: np.ndarray, fa: np.ndarray, fb: np.ndar
 
 
 def first_trigger(index: int, tau: np.ndarray, phi: np.ndarray, dphi: np.ndarray, armed: bool,
-                  fn: ValueFn, xtol: float, tol: float,
-                  floor: float | None = None) -> tuple[Trigger | None, bool]:
+                  fn: ValueFn, xtol: float, tol: float, floor: float | None = None,
+                  extremes: tuple[np.ndarray, ...] | None = None) -> tuple[Trigger | None, bool]:
     """The first time monitor ``index`` reaches zero from above within the samples.
 
     A monitor that is not ``armed`` (it started on or below zero, e.g. a guard
@@ -254,7 +255,9 @@ def first_trigger(index: int, tau: np.ndarray, phi: np.ndarray, dphi: np.ndarray
     """
     h = np.diff(tau)
     fa, fb, da, db = phi[:-1], phi[1:], dphi[:-1], dphi[1:]
-    lo_val, lo_s, hi_val, hi_s = hermite_extremes(h, fa, fb, da, db)
+    if extremes is None:
+        extremes = hermite_extremes(h, fa, fb, da, db)
+    lo_val, lo_s, hi_val, hi_s = extremes
     lower = np.minimum(np.minimum(fa, fb), lo_val)
     start = 0
     t_from = float(tau[0])

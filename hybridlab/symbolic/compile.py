@@ -31,10 +31,15 @@ class ScalarFields:
         args = (TIME, sym.states, sym.parameters, sigmas)
         self.size = len(exprs)
         self.values = VectorFunction(exprs, *args)
-        self._dt = VectorFunction([sp.diff(e, TIME) for e in exprs], *args)
         grad = sp.Matrix([[sp.diff(e, s) for s in sym.states] for e in exprs]) if exprs else \
             sp.zeros(0, len(sym.states))
         self._dx = MatrixFunction(grad, *args)
+        # the Lie derivative compiled directly, with the flow value as an input: only the
+        # states each function depends on cost anything
+        flow = [sp.Symbol(f"_f{i}", real=True) for i in range(len(sym.states))]
+        lie = [sp.diff(e, TIME) + sum(grad[i, j] * flow[j] for j in range(len(flow)))
+               for i, e in enumerate(exprs)]
+        self._lie = VectorFunction(lie, *args, extra=flow)
 
     def gradient(self, t: float, x: np.ndarray, p: np.ndarray, sigma: np.ndarray) -> np.ndarray:
         """``d h_i / d x_j`` at one point, shape ``(m, n)``."""
@@ -48,13 +53,12 @@ class ScalarFields:
     def derivative(self, t: float, x: np.ndarray, p: np.ndarray, sigma: np.ndarray,
                    f: np.ndarray) -> np.ndarray:
         """Lie derivative at one point; ``f`` is the flow there."""
-        return self._dt(t, x, p, sigma) + self._dx(t, x, p, sigma) @ f
+        return self._lie(t, x, p, sigma, f)
 
     def batch_derivative(self, t: np.ndarray, x: np.ndarray, p: np.ndarray, sigma: np.ndarray,
                          f: np.ndarray) -> np.ndarray:
         """Lie derivative at ``k`` points; ``x`` and ``f`` have shape ``(n, k)``."""
-        return self._dt.batch(t, x, p, sigma) + np.einsum("ink,nk->ik",
-                                                          self._dx.batch(t, x, p, sigma), f)
+        return self._lie.batch(t, x, p, sigma, f)
 
 
 @dataclass(frozen=True, eq=False)
@@ -109,6 +113,10 @@ class CompiledMode:
     invariants: ScalarFields
     invariant_texts: tuple[str, ...]
     outgoing: tuple[CompiledTransition, ...] = field(default=())
+    #: every guard inequality of the unscheduled outgoing transitions, then every invariant,
+    #: compiled as one function so the simulator evaluates them in a single call
+    conditions: ScalarFields | None = None
+    guard_rows: Mapping[int, slice] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False)
@@ -252,7 +260,17 @@ def compile_model(model: Model) -> CompiledModel:
         compiled = _compile_mode(sym, name, equations)
         outgoing = tuple(sorted((tr for tr in transitions if tr.source == name),
                                 key=lambda tr: tr.order_key))
-        modes[name] = CompiledMode(**{**compiled.__dict__, "outgoing": outgoing})
+        exprs: list[sp.Expr] = []
+        guard_rows: dict[int, slice] = {}
+        for tr in outgoing:
+            if tr.guard is not None and not tr.scheduled:
+                rels = sym.transitions[tr.index].guard
+                guard_rows[tr.index] = slice(len(exprs), len(exprs) + len(rels))
+                exprs.extend(rel.expr for rel in rels)
+        exprs.extend(rel.expr for rel in sym.modes[name].invariants)
+        conditions = ScalarFields(exprs, sym) if exprs else None
+        modes[name] = CompiledMode(**{**compiled.__dict__, "outgoing": outgoing,
+                                      "conditions": conditions, "guard_rows": guard_rows})
     result = CompiledModel(model=model, symbolic=sym, modes=modes, transitions=transitions)
     model._compiled = result
     return result

@@ -15,6 +15,8 @@ import sympy as sp
 
 __all__ = ["VectorFunction", "MatrixFunction"]
 
+_EMPTY = np.empty(0)
+
 
 def _no_impulses(expr: sp.Expr) -> sp.Expr:
     """Derivatives of sign() produce DiracDelta; between events they vanish."""
@@ -51,20 +53,23 @@ class VectorFunction:
         states: Sequence[sp.Symbol],
         parameters: Sequence[sp.Symbol],
         sigmas: Sequence[sp.Symbol],
+        extra: Sequence[sp.Symbol] = (),
     ) -> None:
         self.exprs = tuple(_no_impulses(sp.Integer(0) + e) for e in exprs)
         self.size = len(self.exprs)
-        args = [t, tuple(states), tuple(parameters), tuple(sigmas)]
+        args = [t, tuple(states), tuple(parameters), tuple(sigmas), tuple(extra)]
         self._fn = sp.lambdify(args, list(self.exprs), modules="numpy", cse=True)
 
-    def __call__(self, t: float, x: np.ndarray, p: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    def __call__(self, t: float, x: np.ndarray, p: np.ndarray, sigma: np.ndarray,
+                 extra: np.ndarray = _EMPTY) -> np.ndarray:
         """Evaluate at one point; returns shape ``(m,)``."""
-        return np.array(self._fn(t, x, p, sigma), dtype=float).reshape(self.size)
+        return np.array(self._fn(t, x, p, sigma, extra), dtype=float).reshape(self.size)
 
-    def batch(self, t: np.ndarray, x: np.ndarray, p: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    def batch(self, t: np.ndarray, x: np.ndarray, p: np.ndarray, sigma: np.ndarray,
+              extra: np.ndarray = _EMPTY) -> np.ndarray:
         """Evaluate at ``k`` points; ``x`` has shape ``(n, k)``; returns ``(m, k)``."""
         out = np.empty((self.size, np.shape(t)[0]))
-        for i, value in enumerate(self._fn(t, x, p, sigma)):
+        for i, value in enumerate(self._fn(t, x, p, sigma, extra)):
             out[i] = value
         return out
 
