@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/python examples/demo.py --plot demo.png
+	$(BIN)/python examples/trolley_stop_and_return.py --plot demo.png
 
 test: $(STAMP)
 	$(BIN)/ruff check hybridlab tests examples benchmarks

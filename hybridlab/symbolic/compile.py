@@ -12,7 +12,7 @@ from hybridlab.errors import ModelError
 from hybridlab.model.checks import TIME, SymbolicModel
 from hybridlab.model.schema import Model
 from hybridlab.symbolic.discontinuities import Switch, extract_switches
-from hybridlab.symbolic.functions import MatrixFunction, VectorFunction
+from hybridlab.symbolic.functions import LazyMatrixFunction, MatrixFunction, VectorFunction
 from hybridlab.symbolic.lagrange import LagrangeEquations, lagrange_equations, mode_flow
 
 __all__ = ["ScalarFields", "CompiledMode", "CompiledTransition", "CompiledModel", "compile_model"]
@@ -33,7 +33,7 @@ class ScalarFields:
         self.values = VectorFunction(exprs, *args)
         grad = sp.Matrix([[sp.diff(e, s) for s in sym.states] for e in exprs]) if exprs else \
             sp.zeros(0, len(sym.states))
-        self._dx = MatrixFunction(grad, *args)
+        self._dx = LazyMatrixFunction(lambda: grad, *args)  # only sliding needs the gradient
         # the Lie derivative compiled directly, with the flow value as an input: only the
         # states each function depends on cost anything
         flow = [sp.Symbol(f"_f{i}", real=True) for i in range(len(sym.states))]
@@ -106,7 +106,7 @@ class CompiledMode:
     name: str
     switches: tuple[Switch, ...]
     flow: VectorFunction
-    jacobian: MatrixFunction
+    jacobian: MatrixFunction | LazyMatrixFunction
     flow_dsigma: MatrixFunction | None
     affine_in_sigma: bool
     switch_fields: ScalarFields
@@ -168,27 +168,32 @@ def _affine_in(exprs: Sequence[sp.Expr], symbols: Sequence[sp.Symbol]) -> bool:
     return all(sp.diff(e, a, b) == 0 for e in exprs for a in symbols for b in symbols)
 
 
-def _compile_mode(sym: SymbolicModel, name: str,
-                  equations: LagrangeEquations | None) -> CompiledMode:
+def _compile_mode(sym: SymbolicModel, name: str, equations: LagrangeEquations | None,
+                  cache: dict) -> CompiledMode:
+    """Compile one mode; modes with the same flow share its compiled functions."""
     mode = sym.modes[name]
-    smooth, switches = extract_switches(mode_flow(sym, name, equations), prefix="_sigma")
-    sigmas = [s.symbol for s in switches]
-    args = (TIME, sym.states, sym.parameters, sigmas)
-    flow_matrix = sp.Matrix(smooth)
-    jacobian = MatrixFunction(flow_matrix.jacobian(sym.states), *args)
-    flow_dsigma = MatrixFunction(flow_matrix.jacobian(sigmas), *args) if sigmas else None
-    invariant_exprs = [rel.expr for rel in mode.invariants]
-    return CompiledMode(
-        name=name,
-        switches=switches,
-        flow=VectorFunction(smooth, *args),
-        jacobian=jacobian,
-        flow_dsigma=flow_dsigma,
-        affine_in_sigma=_affine_in(smooth, sigmas),
-        switch_fields=ScalarFields([s.expr for s in switches], sym, sigmas),
-        invariants=ScalarFields(invariant_exprs, sym),
-        invariant_texts=tuple(rel.text for rel in mode.invariants),
-    )
+    flow = mode_flow(sym, name, equations)
+    key = ("flow", flow)
+    if key not in cache:
+        smooth, switches = extract_switches(flow, prefix="_sigma")
+        sigmas = [s.symbol for s in switches]
+        args = (TIME, sym.states, sym.parameters, sigmas)
+        flow_matrix = sp.Matrix(smooth)
+        cache[key] = {
+            "switches": switches,
+            "flow": VectorFunction(smooth, *args),
+            "jacobian": LazyMatrixFunction(lambda m=flow_matrix: m.jacobian(sym.states), *args),
+            "flow_dsigma": MatrixFunction(flow_matrix.jacobian(sigmas), *args) if sigmas else None,
+            "affine_in_sigma": _affine_in(smooth, sigmas),
+            "switch_fields": ScalarFields([s.expr for s in switches], sym, sigmas),
+        }
+    invariant_exprs = tuple(rel.expr for rel in mode.invariants)
+    inv_key = ("invariants", invariant_exprs)
+    if inv_key not in cache:
+        cache[inv_key] = ScalarFields(invariant_exprs, sym)
+    return CompiledMode(name=name, invariants=cache[inv_key],
+                        invariant_texts=tuple(rel.text for rel in mode.invariants),
+                        **cache[key])
 
 
 def _compile_transition(sym: SymbolicModel, index: int, cache: dict) -> CompiledTransition:
@@ -257,7 +262,7 @@ def compile_model(model: Model) -> CompiledModel:
                                        [sym.states[i] for i in mech.velocities])
     modes = {}
     for name in sym.modes:
-        compiled = _compile_mode(sym, name, equations)
+        compiled = _compile_mode(sym, name, equations, cache)
         outgoing = tuple(sorted((tr for tr in transitions if tr.source == name),
                                 key=lambda tr: tr.order_key))
         exprs: list[sp.Expr] = []
@@ -268,7 +273,10 @@ def compile_model(model: Model) -> CompiledModel:
                 guard_rows[tr.index] = slice(len(exprs), len(exprs) + len(rels))
                 exprs.extend(rel.expr for rel in rels)
         exprs.extend(rel.expr for rel in sym.modes[name].invariants)
-        conditions = ScalarFields(exprs, sym) if exprs else None
+        cond_key = ("conditions", tuple(exprs))
+        if exprs and cond_key not in cache:
+            cache[cond_key] = ScalarFields(exprs, sym)
+        conditions = cache[cond_key] if exprs else None
         modes[name] = CompiledMode(**{**compiled.__dict__, "outgoing": outgoing,
                                       "conditions": conditions, "guard_rows": guard_rows})
     result = CompiledModel(model=model, symbolic=sym, modes=modes, transitions=transitions)

@@ -13,7 +13,7 @@ from collections.abc import Sequence
 import numpy as np
 import sympy as sp
 
-__all__ = ["VectorFunction", "MatrixFunction"]
+__all__ = ["VectorFunction", "MatrixFunction", "LazyMatrixFunction"]
 
 _EMPTY = np.empty(0)
 
@@ -102,3 +102,32 @@ class MatrixFunction:
     def batch(self, t: np.ndarray, x: np.ndarray, p: np.ndarray, sigma: np.ndarray) -> np.ndarray:
         """Evaluate at ``k`` points; returns ``(r, c, k)``."""
         return self._flat.batch(t, x, p, sigma).reshape(*self.shape, -1)
+
+
+class LazyMatrixFunction:
+    """A :class:`MatrixFunction` built on first use (a Jacobian only stiff methods need).
+
+    Examples
+    --------
+    >>> t, x = sp.symbols("t x", real=True)
+    >>> J = LazyMatrixFunction(lambda: sp.Matrix([[3*x]]), t, [x], [], [])
+    >>> J(0.0, np.array([2.0]), np.array([]), np.array([]))
+    array([[6.]])
+    """
+
+    def __init__(self, build, t: sp.Symbol, states: Sequence[sp.Symbol],
+                 parameters: Sequence[sp.Symbol], sigmas: Sequence[sp.Symbol]) -> None:
+        self._build = build
+        self._args = (t, tuple(states), tuple(parameters), tuple(sigmas))
+        self._fn: MatrixFunction | None = None
+
+    def _compiled(self) -> MatrixFunction:
+        if self._fn is None:
+            self._fn = MatrixFunction(self._build(), *self._args)
+        return self._fn
+
+    def __call__(self, t: float, x: np.ndarray, p: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+        return self._compiled()(t, x, p, sigma)
+
+    def batch(self, t: np.ndarray, x: np.ndarray, p: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+        return self._compiled().batch(t, x, p, sigma)
