@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -35,6 +36,13 @@ class _Parser(argparse.ArgumentParser):
         raise _UsageError(message)
 
 
+def _finite(value: float | None, option: str) -> float | None:
+    """``value`` unless it is inf or nan (argparse's ``float`` accepts both)."""
+    if value is not None and not math.isfinite(value):
+        raise _UsageError(f"{option}: {value!r} is not a finite number")
+    return value
+
+
 def _assignments(items: Sequence[str] | None, option: str) -> dict[str, float]:
     out: dict[str, float] = {}
     for item in items or ():
@@ -42,9 +50,12 @@ def _assignments(items: Sequence[str] | None, option: str) -> dict[str, float]:
         if not sep or not name.strip():
             raise _UsageError(f"{option} expects NAME=VALUE (got {item!r})")
         try:
-            out[name.strip()] = float(value)
+            number = float(value)
         except ValueError:
             raise _UsageError(f"{option} {name.strip()}: {value!r} is not a number") from None
+        if not math.isfinite(number):
+            raise _UsageError(f"{option} {name.strip()}: {value!r} is not a finite number")
+        out[name.strip()] = number
     return out
 
 
@@ -82,19 +93,24 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
+    # check every argument before the (possibly long) simulation runs
+    for option in ("t_end", "rtol", "atol", "max_step"):
+        _finite(getattr(args, option), "--" + option.replace("_", "-"))
+    params = _assignments(args.set, "--set")
+    initial = _assignments(args.init, "--init")
+    out = Path(args.out) if args.out else None
+    if out is not None and out.suffix.lower() not in (".json", ".csv", ".npz"):
+        raise _UsageError(f"--out must end in .json, .csv or .npz (got {args.out!r})")
     model = load_model(args.model)
     kwargs = {}
     if args.zeno:
         kwargs["zeno"] = args.zeno
     result = simulate(
-        model, args.t_end, scenario=args.scenario, params=_assignments(args.set, "--set"),
-        initial=_assignments(args.init, "--init"), mode=args.mode, rtol=args.rtol,
-        atol=args.atol, method=args.method, max_step=args.max_step, **kwargs,
+        model, args.t_end, scenario=args.scenario, params=params, initial=initial,
+        mode=args.mode, rtol=args.rtol, atol=args.atol, method=args.method,
+        max_step=args.max_step, **kwargs,
     )
-    if args.out:
-        out = Path(args.out)
-        if out.suffix.lower() not in (".json", ".csv", ".npz"):
-            raise _UsageError(f"--out must end in .json, .csv or .npz (got {args.out!r})")
+    if out is not None:
         result.save(out)
     jumps = len(result.jumps)
     print(f"status: {result.status.name}: {result.message}")
@@ -168,6 +184,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         args = _parser().parse_args(argv)
         return int(args.run(args))
+    except SystemExit as exc:  # argparse's own exits: --help, --version
+        code = exc.code
+        if code is None:
+            return EXIT_OK
+        if isinstance(code, int):
+            return code
+        print(code, file=sys.stderr)
+        return EXIT_INTERNAL
     except _UsageError as exc:
         print(f"hybridlab: error: {exc}", file=sys.stderr)
         return EXIT_USAGE

@@ -76,11 +76,25 @@ class ModelError(HybridlabError, ValueError):
         return ModelError(self.message, key=self.key, token=self.token, source=source)
 
     def __str__(self) -> str:
-        parts = [p for p in (self.source, self.key) if p]
-        text = " ".join(self.message.split())
+        parts = [_one_line(p) for p in (self.source, self.key) if p]
+        text = _one_line(self.message)
         if self.token:
-            text += f" (token {self.token!r})"
+            text += f" (token {str(self.token)!r})"  # repr escapes control characters
         return ": ".join([*parts, text])
+
+
+def _one_line(text: str) -> str:
+    """``text`` with line breaks and other non-printable characters escaped as in ``repr``.
+
+    Examples
+    --------
+    >>> print(_one_line("fa\\nll\\x00"))
+    fa\\nll\\x00
+    """
+    text = str(text)
+    if text.isprintable():
+        return text
+    return "".join(ch if ch.isprintable() else repr(ch)[1:-1] for ch in text)
 
 
 class CompilationError(HybridlabError, ValueError):

@@ -12,6 +12,8 @@ from __future__ import annotations
 import ast
 import keyword
 import math
+import sys
+import unicodedata
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
@@ -32,6 +34,13 @@ __all__ = [
 
 MAX_EXPRESSION_LENGTH = 10_000
 _MAX_DEPTH = 200
+#: Largest numerator of a rational exponent (``x**100``): larger exact powers make sympy
+#: expand huge polynomials or compute huge integers. A power of two numbers whose
+#: exponent has a larger numerator or denominator is computed in floating point.
+_MAX_EXPONENT = 100
+_MAX_INTEGER_LITERAL = int(sys.float_info.max)
+#: Values sympy can produce from finite operands (``0**-1``, ``log(0)``) that are no number.
+_NON_FINITE = frozenset((sp.zoo, sp.oo, sp.S.NegativeInfinity, sp.nan))
 
 
 def _clip(x: sp.Expr, lo: sp.Expr, hi: sp.Expr) -> sp.Expr:
@@ -83,6 +92,7 @@ _BINARY_HINT = {
     ast.LShift: ("'<<' is not supported", "<<"),
     ast.RShift: ("'>>' is not supported", ">>"),
 }
+_UNARY_TOKEN = {ast.Not: "not", ast.Invert: "~"}
 _COMPARE = {ast.Lt: "<", ast.LtE: "<=", ast.Gt: ">", ast.GtE: ">="}
 _COMPARE_REJECTED = {ast.Eq: "==", ast.NotEq: "!=", ast.Is: "is", ast.IsNot: "is not",
                      ast.In: "in", ast.NotIn: "not in"}
@@ -129,6 +139,12 @@ def check_name(name: str) -> None:
     if not isinstance(name, str) or not name.isidentifier() or keyword.iskeyword(name):
         raise ExpressionError("not a valid name (letters, digits and '_', not a keyword)",
                               str(name))
+    normalised = unicodedata.normalize("NFKC", name)
+    if normalised != name:
+        # Python's parser NFKC-normalises identifiers, so an expression could never
+        # refer to this spelling
+        raise ExpressionError(f"name is not in Unicode normal form NFKC; write it as "
+                              f"{normalised!r}", name)
     if name.startswith("_"):
         raise ExpressionError("names may not start with '_'", name)
     if name in RESERVED_NAMES:
@@ -156,18 +172,86 @@ def _parse_tree(text: str) -> ast.expr:
     return tree.body
 
 
+def _is_finite_number(atom: sp.Basic) -> bool:
+    """False for zoo, oo, -oo, nan and numbers beyond the float range."""
+    if atom in _NON_FINITE:
+        return False
+    if isinstance(atom, sp.Number):
+        try:
+            return math.isfinite(float(atom))
+        except (OverflowError, TypeError, ValueError):
+            return False
+    return True
+
+
 class _Builder:
     """Turns an ``ast`` expression into sympy, refusing every other node."""
 
     def __init__(self, text: str, symbols: Mapping[str, sp.Expr]) -> None:
         self.text = text
         self.symbols = symbols
+        self.finite: set[sp.Basic] = set()  # subexpressions already known to be finite
+
+    def check_finite(self, value: sp.Expr, node: ast.AST) -> None:
+        """Refuse a (sub)expression that contains a value that is no finite double.
+
+        Operations on finite operands can still give sympy's ``zoo``, ``oo`` or ``nan``
+        (``0**-1``, ``log(0)``, ``atan2(0, 0)``) or a number beyond the float range
+        (``1e300*1e300``: sympy numbers have no upper limit, compiled models do).
+        Subtrees checked before are skipped, so a long sum costs linear time per node.
+        """
+        seen: list[sp.Basic] = []
+        stack: list[sp.Basic] = [value]
+        while stack:
+            part = stack.pop()
+            if part in self.finite:
+                continue
+            seen.append(part)
+            if part.args:
+                stack.extend(part.args)
+            elif not _is_finite_number(part):
+                message = ("number too large" if part.is_finite
+                           else "expression is not a finite number")
+                raise ExpressionError(message, self.token(node))
+        self.finite.update(seen)
 
     def token(self, node: ast.AST) -> str:
         segment = ast.get_source_segment(self.text.strip(), node)
         return (segment or type(node).__name__)[:40]
 
     def expr(self, node: ast.AST, depth: int = 0) -> sp.Expr:
+        result = self._build(node, depth)
+        if isinstance(node, ast.BinOp | ast.UnaryOp | ast.Call):
+            self.check_finite(result, node)
+        return result
+
+    def power(self, base: sp.Expr, exponent: sp.Expr, node: ast.AST) -> sp.Expr:
+        """``base**exponent`` without letting sympy compute giant exact numbers."""
+        rational = isinstance(exponent, sp.Rational)
+        if isinstance(base, sp.Number) and isinstance(exponent, sp.Number):
+            big = rational and max(abs(exponent.p), exponent.q) > _MAX_EXPONENT
+            try:
+                approx = complex(float(base) ** float(exponent))
+            except ZeroDivisionError:
+                raise ExpressionError("number is not finite", self.token(node)) from None
+            except OverflowError:
+                raise ExpressionError("number too large", self.token(node)) from None
+            if not (math.isfinite(approx.real) and math.isfinite(approx.imag)):
+                raise ExpressionError("number too large", self.token(node))
+            if big:
+                if approx.imag:
+                    raise ExpressionError("power of a negative number is not real",
+                                          self.token(node))
+                return sp.Float(approx.real)
+        elif rational and abs(exponent.p) > _MAX_EXPONENT:
+            raise ExpressionError(f"exponent too large (at most {_MAX_EXPONENT})",
+                                  self.token(node))
+        try:
+            return base**exponent
+        except (ZeroDivisionError, OverflowError, ValueError, TypeError):
+            raise ExpressionError("arithmetic on literals failed", self.token(node)) from None
+
+    def _build(self, node: ast.AST, depth: int) -> sp.Expr:
         if depth > _MAX_DEPTH:
             raise ExpressionError("expression nested too deeply", self.token(node))
         if isinstance(node, ast.Constant):
@@ -176,6 +260,8 @@ class _Builder:
                 raise ExpressionError("only numbers are allowed as literals", self.token(node))
             if isinstance(value, float) and not math.isfinite(value):
                 raise ExpressionError("number is not finite", self.token(node))
+            if isinstance(value, int) and abs(value) > _MAX_INTEGER_LITERAL:
+                raise ExpressionError("number too large", self.token(node))
             return sp.Integer(value) if isinstance(value, int) else sp.Float(value)
         if isinstance(node, ast.Name):
             if node.id in self.symbols:
@@ -196,6 +282,8 @@ class _Builder:
             right = self.expr(node.right, depth + 1)
             if op is ast.Div and right == 0:
                 raise ExpressionError("division by zero", self.token(node))
+            if op is ast.Pow:
+                return self.power(left, right, node)
             try:
                 return _BINARY[op](left, right)
             except (ZeroDivisionError, OverflowError, ValueError, TypeError):
@@ -206,7 +294,8 @@ class _Builder:
                 return -operand
             if isinstance(node.op, ast.UAdd):
                 return operand
-            raise ExpressionError("operator not allowed", self.token(node)[:1])
+            raise ExpressionError("operator not allowed",
+                                  _UNARY_TOKEN.get(type(node.op), self.token(node)))
         if isinstance(node, ast.Call):
             return self.call(node, depth)
         if isinstance(node, ast.Compare | ast.BoolOp):
@@ -266,6 +355,7 @@ class _Builder:
             rhs = self.expr(right, 1)
             symbol = _COMPARE[type(op)]
             diff = rhs - lhs if symbol in ("<", "<=") else lhs - rhs
+            self.check_finite(diff, node)
             text = f"{self.token(left)} {symbol} {self.token(right)}"
             out.append(Inequality(sp.expand(diff) if diff.is_polynomial() else diff,
                                   symbol in ("<", ">"), text))

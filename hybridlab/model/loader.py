@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
@@ -16,32 +17,82 @@ from hybridlab.model.schema import Model
 __all__ = ["load_model", "loads_model", "model_from_dict", "dumps_model", "model_json_schema"]
 
 
-def _key_path(loc: tuple[Any, ...]) -> str:
+#: Branch names pydantic appends to the location of an error inside a union field
+#: (``source: str | list[str]`` reports ``source.str`` and ``source.list[str]``).
+_UNION_TAGS = frozenset({"str", "float", "int", "bool", "none", "list", "dict",
+                         "constrained-str", "constrained-float", "constrained-int"})
+_MISSING = object()
+
+
+def _is_union_tag(part: str) -> bool:
+    return part in _UNION_TAGS or "[" in part or part.startswith(
+        ("function-", "json-or-python", "lax-or-strict"))
+
+
+def _key_path(loc: tuple[Any, ...], data: Any = _MISSING) -> str:
+    """The user's key path of a pydantic error location, without pydantic's branch names.
+
+    ``data`` is the validated input: a part that is a key of the input mapping at that
+    position is always kept, so a mode or state named ``str`` is reported as written.
+    A union tag can only be confused with a user key where the input is no longer
+    known (below a value a validator rewrote, e.g. ``g = 9.81`` into
+    ``{value = 9.81}``); there a key spelt like a tag (``float``) would be dropped.
+
+    Examples
+    --------
+    >>> _key_path(("transitions", 0, "source", "list[str]"), {"transitions": [{}]})
+    'transitions[0].source'
+    >>> _key_path(("modes", "str", "flow"), {"modes": {"str": {}}})
+    'modes.str.flow'
+    """
     path = ""
+    current = data
     for part in loc:
-        if isinstance(part, int):
+        if isinstance(part, int) and not isinstance(part, bool):
             path += f"[{part}]"
-        elif str(part).startswith(("function-", "json-or-python", "union[")):
-            continue  # pydantic's internal validator names, not user keys
+            if isinstance(current, list | tuple) and -len(current) <= part < len(current):
+                current = current[part]
+            else:
+                current = _MISSING
+            continue
+        part = str(part)
+        if isinstance(current, Mapping) and part in current:
+            current = current[part]
+        elif _is_union_tag(part):
+            continue  # pydantic's name of a union branch or validator, not a user key
         else:
-            path += f".{part}" if path else str(part)
+            current = _MISSING
+        path += f".{part}" if path else part
     return path
 
 
-def _from_validation_error(exc: ValidationError) -> ModelError:
-    error = exc.errors(include_url=False)[0]
+def _first_error(exc: ValidationError) -> dict[str, Any]:
+    """The error to report: an unknown key first (a misspelt required key is reported
+    as the key the user wrote, not as the required key now missing)."""
+    errors = exc.errors(include_url=False)
+    for error in errors:
+        if error.get("type") == "extra_forbidden":
+            return dict(error)
+    return dict(errors[0])
+
+
+def _from_validation_error(exc: ValidationError, data: Any = _MISSING) -> ModelError:
+    error = _first_error(exc)
     cause = (error.get("ctx") or {}).get("error")
     if isinstance(cause, ModelError):
         return cause
     loc = tuple(error.get("loc", ()))
-    key = _key_path(loc)
+    key = _key_path(loc, data)
     kind = error.get("type", "")
     if kind == "extra_forbidden":
         return ModelError("unknown key", key=key, token=str(loc[-1]) if loc else "")
     if kind == "missing":
         return ModelError("required key is missing", key=key, token=str(loc[-1]) if loc else "")
     value = error.get("input")
-    token = value if isinstance(value, str) else repr(value)
+    if isinstance(value, bool):
+        token = "true" if value else "false"  # as written in TOML
+    else:
+        token = value if isinstance(value, str) else repr(value)
     if len(token) > 40:
         token = token[:37] + "..."
     return ModelError(error.get("msg", "invalid value"), key=key, token=token)
@@ -68,10 +119,11 @@ def model_from_dict(data: Mapping[str, Any], *, source: str = "<dict>") -> Model
     """
     if not isinstance(data, Mapping):
         raise ModelError("a model must be a table of keys", source=source)
+    data = dict(data)
     try:
-        return Model.model_validate(dict(data))
+        return Model.model_validate(data)
     except ValidationError as exc:
-        raise _from_validation_error(exc).with_source(source) from None
+        raise _from_validation_error(exc, data).with_source(source) from None
     except ModelError as exc:
         raise exc.with_source(source) from None
     except (RecursionError, MemoryError, OverflowError):
@@ -121,6 +173,31 @@ def load_model(path: str | Path) -> Model:
     return loads_model(text, source=str(path))
 
 
+#: TOML basic-string escapes with a short form; other control characters use \\uXXXX.
+_SHORT_ESCAPES = {"\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r",
+                  '"': '\\"', "\\": "\\\\"}
+
+
+def _toml_string(value: str) -> str:
+    """A TOML basic string: quotes, backslashes and every control character escaped.
+
+    Examples
+    --------
+    >>> print(_toml_string('a"b\\\\c\\r\\x00\\x7f\\x85é'))
+    "a\\"b\\\\c\\r\\u0000\\u007F\\u0085é"
+    """
+    out = []
+    for ch in value:
+        code = ord(ch)
+        if ch in _SHORT_ESCAPES:
+            out.append(_SHORT_ESCAPES[ch])
+        elif code < 0x20 or 0x7F <= code <= 0x9F:
+            out.append(f"\\u{code:04X}")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
+
+
 def _toml_value(value: Any) -> str:
     if isinstance(value, bool):
         return "true" if value else "false"
@@ -131,8 +208,7 @@ def _toml_value(value: Any) -> str:
             raise ValueError("non-finite number cannot be written")
         return repr(value)
     if isinstance(value, str):
-        escaped = value.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")
-        return f'"{escaped}"'
+        return _toml_string(value)
     if isinstance(value, list | tuple):
         return "[" + ", ".join(_toml_value(v) for v in value) + "]"
     if isinstance(value, Mapping):
@@ -141,8 +217,12 @@ def _toml_value(value: Any) -> str:
     raise TypeError(f"cannot write {type(value).__name__} to TOML")
 
 
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+
+
 def _toml_key(key: str) -> str:
-    return key if key.replace("_", "a").replace("-", "a").isalnum() else _toml_value(key)
+    """A bare key when TOML allows one (ASCII letters, digits, '_' and '-'), else quoted."""
+    return key if _BARE_KEY.fullmatch(key) else _toml_string(key)
 
 
 def dumps_model(model: Model) -> str:

@@ -8,6 +8,7 @@ last validation step, so an invalid model object cannot exist.
 
 from __future__ import annotations
 
+import numbers
 from typing import Annotated, Any
 
 from pydantic import (
@@ -15,9 +16,13 @@ from pydantic import (
     BeforeValidator,
     ConfigDict,
     Field,
+    GetJsonSchemaHandler,
     PrivateAttr,
+    Strict,
     model_validator,
 )
+from pydantic.json_schema import JsonSchemaValue
+from pydantic_core import CoreSchema, PydanticCustomError
 
 __all__ = [
     "Parameter",
@@ -58,8 +63,51 @@ def _one_as_list(value: Any) -> Any:
     return [value] if isinstance(value, str) else value
 
 
+class _Shorthand:
+    """Publish ``anyOf: [shorthand, full form]`` in the JSON schema of a field.
+
+    The validators accept a shorthand (``g = 9.81``, ``guard = "h <= 0"``) and turn it
+    into the full form, so the validated object always holds the full form; this adds
+    the shorthand to the published schema, which describes files as written.
+    """
+
+    def __init__(self, shorthand: JsonSchemaValue) -> None:
+        self.shorthand = shorthand
+
+    def __get_pydantic_json_schema__(
+        self, core_schema: CoreSchema, handler: GetJsonSchemaHandler
+    ) -> JsonSchemaValue:
+        return {"anyOf": [self.shorthand, handler(core_schema)]}
+
+
+def _plain_real(value: Any) -> Any:
+    """Numbers that are no ``int``/``float`` (numpy scalars) as ``float``; booleans stay
+    booleans, so the strict number types below refuse them (``true`` is no number)."""
+    if isinstance(value, numbers.Real) and not isinstance(value, bool | int | float):
+        try:
+            return float(value)
+        except (OverflowError, ValueError):
+            return value
+    return value
+
+
+def _no_bool_or_text(value: Any) -> Any:
+    """Refuse what the JSON schema's ``integer`` refuses but lax ``int`` would convert."""
+    if isinstance(value, bool | str | bytes):
+        raise PydanticCustomError("int_type", "Input should be a valid integer")
+    return value
+
+
+#: A number: int or float, never a boolean or a numeric string (as in the JSON schema).
+Number = Annotated[float, Strict(), BeforeValidator(_plain_real)]
+PositiveNumber = Annotated[float, Strict(), Field(gt=0), BeforeValidator(_plain_real)]
+#: An integer (a float with no fractional part is accepted, as JSON schema does).
+Integer = Annotated[int, BeforeValidator(_no_bool_or_text)]
+_EXPRESSION_SCHEMA: JsonSchemaValue = {"type": "string", "minLength": 1, "maxLength": 10_000}
 Expression = Annotated[str, Field(min_length=1, max_length=10_000)]
-Relations = Annotated[list[Expression], BeforeValidator(_one_as_list)]
+#: One relation or a list of them; always a list once validated.
+Relations = Annotated[list[Expression], BeforeValidator(_one_as_list),
+                      _Shorthand(_EXPRESSION_SCHEMA)]
 
 
 class Parameter(_Frozen):
@@ -71,7 +119,7 @@ class Parameter(_Frozen):
     0.8
     """
 
-    value: float
+    value: Number
     unit: str = "1"
     description: str = ""
 
@@ -88,7 +136,7 @@ class State(_Frozen):
     10.0
     """
 
-    initial: float
+    initial: Number
     unit: str = "1"
     flow: Expression | None = None
     description: str = ""
@@ -154,8 +202,8 @@ class Schedule(_Frozen):
     'T_s'
     """
 
-    period: float | Expression
-    phase: float | Expression = 0.0
+    period: Number | Expression
+    phase: Number | Expression = 0.0
 
 
 class Transition(_Frozen):
@@ -184,7 +232,7 @@ class Transition(_Frozen):
     target: str
     guard: Relations = Field(default_factory=list)
     reset: dict[str, Expression] = Field(default_factory=dict)
-    priority: int | None = None
+    priority: Integer | None = None
     schedule: Schedule | None = None
     description: str = ""
 
@@ -204,20 +252,22 @@ class Scenario(_Frozen):
     {'e': 0.5}
     """
 
-    t_end: float
-    t_start: float = 0.0
-    parameters: dict[str, float] = Field(default_factory=dict)
-    initial: dict[str, float] = Field(default_factory=dict)
+    t_end: Number
+    t_start: Number = 0.0
+    parameters: dict[str, Number] = Field(default_factory=dict)
+    initial: dict[str, Number] = Field(default_factory=dict)
     mode: str | None = None
     method: str | None = None
-    rtol: Annotated[float, Field(gt=0)] | None = None
-    atol: Annotated[float, Field(gt=0)] | None = None
-    max_step: Annotated[float, Field(gt=0)] | None = None
+    rtol: PositiveNumber | None = None
+    atol: PositiveNumber | None = None
+    max_step: PositiveNumber | None = None
     description: str = ""
 
 
-ParameterField = Annotated[Parameter, _number_as("value")]
-StateField = Annotated[State, _number_as("initial")]
+#: ``g = 9.81`` or a Parameter table; always a Parameter once validated.
+ParameterField = Annotated[Parameter, _number_as("value"), _Shorthand({"type": "number"})]
+#: ``h = 10.0`` or a State table; always a State once validated.
+StateField = Annotated[State, _number_as("initial"), _Shorthand({"type": "number"})]
 
 
 class Model(_Frozen):
@@ -253,6 +303,19 @@ class Model(_Frozen):
 
     _symbolic: Any = PrivateAttr(default=None)
     _compiled: Any = PrivateAttr(default=None)
+
+    def __eq__(self, other: object) -> bool:
+        # compare the declared fields only: pydantic's default also compares the private
+        # caches, so a compiled model would differ from a fresh copy of itself
+        if not isinstance(other, BaseModel):
+            return NotImplemented
+        if type(other) is not type(self):
+            return False
+        return all(getattr(self, name) == getattr(other, name)
+                   for name in type(self).model_fields)
+
+    # no __hash__ here: pydantic still gives the frozen model its field hash (which
+    # raises TypeError, as the fields hold dicts), exactly as before __eq__ was defined
 
     @model_validator(mode="after")
     def _check_meaning(self) -> Model:

@@ -398,8 +398,16 @@ class _Run:
             armed, floors = np.zeros(0, dtype=bool), []
         sigma = self.sigma
         if self.sliding:
+            sliding = list(self.sliding)
+
             def rhs(tt: float, y: np.ndarray) -> np.ndarray:
-                return mode.flow(tt, y, p, self.sigma_at(mode, tt, y))
+                sig = self.sigma_at(mode, tt, y)
+                f = mode.flow(tt, y, p, sig)
+                # remove the rounding-level drift off the sliding surfaces: project the
+                # equivalent flow onto their tangent space (exact for s = a state)
+                grad = mode.switch_fields.gradient(tt, y, p, sig)[sliding]
+                drift = mode.switch_fields.derivative(tt, y, p, sig, f)[sliding]
+                return f - grad.T @ np.linalg.lstsq(grad @ grad.T, drift, rcond=None)[0]
             jac = None
         else:
             def rhs(tt: float, y: np.ndarray) -> np.ndarray:

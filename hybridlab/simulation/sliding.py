@@ -103,33 +103,50 @@ def resolve_switches(mode: CompiledMode, t: float, x: np.ndarray, p: np.ndarray,
         The switches that slide.
     """
     sigma = sigma.copy()
+    previous = sigma.copy()
     forced = forced or {}
     for k, value in forced.items():
         sigma[k] = value
-    candidates = [k for k in sorted(set(at_surface)) if k not in forced]
-    sliding: list[int] = []
-    for k in candidates:
+    sliding = [k for k in sorted(set(at_surface)) if k not in forced]
+
+    def sides(k: int) -> tuple[float, float]:
         plus, minus = sigma.copy(), sigma.copy()
         plus[k], minus[k] = 1.0, -1.0
-        d_plus = _sdot(mode, t, x, p, plus)[k]
-        d_minus = _sdot(mode, t, x, p, minus)[k]
+        return _sdot(mode, t, x, p, plus)[k], _sdot(mode, t, x, p, minus)[k]
+
+    def leave(k: int, d_plus: float, d_minus: float) -> None:
+        sliding.remove(k)
         if d_plus > 0 and d_minus > 0:
             sigma[k] = 1.0
         elif d_plus < 0 and d_minus < 0:
             sigma[k] = -1.0
-        elif d_plus <= 0 <= d_minus and d_minus > d_plus:
-            sliding.append(k)
         else:  # repelling or tangential: keep going the way the state came
-            sigma[k] = 1.0 if sigma[k] >= 0 else -1.0
-    while sliding:
+            sigma[k] = 1.0 if previous[k] >= 0 else -1.0
+
+    # a surface whose flow does not depend on its sign (abs, min, max) is crossed, not slid on
+    for k in list(sliding):
+        d_plus, d_minus = sides(k)
+        if abs(d_plus - d_minus) <= 1e-14 * (abs(d_plus) + abs(d_minus)):
+            leave(k, d_plus, d_minus)
+    # active set: all candidates slide jointly; drop those whose equivalent sign leaves
+    # [-1, 1] or that do not attract, and solve again
+    for _ in range(2 * len(sliding) + 2):
+        if not sliding:
+            break
         _require_affine(mode, sliding)
         sigma[sliding] = 0.0
         eq = equivalent_sigma(mode, t, x, p, sigma, sliding)
-        outside = [k for k, value in zip(sliding, eq, strict=True) if abs(value) > 1 + _EQ_SLACK]
         sigma[sliding] = eq
-        if not outside:
+        outside = [k for k, value in zip(sliding, eq, strict=True) if abs(value) > 1 + _EQ_SLACK]
+        if outside:
+            for k in outside:
+                sigma[k] = float(np.sign(sigma[k]))
+                sliding.remove(k)
+            continue
+        repelling = [(k, *sides(k)) for k in sliding]
+        repelling = [(k, dp, dm) for k, dp, dm in repelling if not (dp <= 0 <= dm and dm > dp)]
+        if not repelling:
             break
-        for k in outside:
-            sigma[k] = float(np.sign(sigma[k]))
-            sliding.remove(k)
+        for k, d_plus, d_minus in repelling:
+            leave(k, d_plus, d_minus)
     return sigma, tuple(sliding)
