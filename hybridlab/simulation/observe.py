@@ -69,7 +69,11 @@ class Observer:
             pieces = [(seg.mode, seg.t, seg.y) for seg in result.segments]
         else:
             ts = np.atleast_1d(np.asarray(t, dtype=float))
-            pieces = [(result.mode_at(tk), np.array([tk]), result(tk)[:, None]) for tk in ts]
+            which = result.segment_index(ts)
+            states = result(ts).reshape(len(result.state_names), ts.size)
+            bounds = np.flatnonzero(np.diff(which)) + 1
+            pieces = [(result.segments[which[c[0]]].mode, ts[c], states[:, c])
+                      for c in np.split(np.arange(ts.size), bounds) if c.size]
         out = []
         for mode, ts, ys in pieces:
             if mode not in self._per_mode:

@@ -97,12 +97,16 @@ class Segment:
         """Dense state inside the segment; shape ``(n,)`` or ``(n, k)``."""
         ts = np.atleast_1d(np.asarray(t, dtype=float))
         out = np.empty((self.y.shape[0], ts.size))
-        idx = np.clip(np.searchsorted(self.t, ts, side="left") - 1, 0, len(self.t) - 2)
-        for k, (i, tk) in enumerate(zip(idx, ts, strict=True)):
-            if len(self.interpolants) == 0 or len(self.t) < 2:
-                out[:, k] = self.y[:, min(i, self.y.shape[1] - 1)]
-            else:
-                out[:, k] = self.interpolants[i](tk)
+        if len(self.interpolants) == 0 or len(self.t) < 2:
+            out[:] = self.y[:, :1]
+        else:
+            idx = np.clip(np.searchsorted(self.t, ts, side="left") - 1, 0, len(self.t) - 2)
+            # one vectorised call per integrator step
+            bounds = np.flatnonzero(np.diff(idx)) + 1
+            for chunk in np.split(np.arange(ts.size), bounds):
+                if chunk.size:
+                    out[:, chunk] = self.interpolants[idx[chunk[0]]](ts[chunk]).reshape(
+                        self.y.shape[0], chunk.size)
         return out[:, 0] if np.ndim(t) == 0 else out
 
 
@@ -224,13 +228,37 @@ class SimulationResult:
         Returns shape ``(n,)`` for a scalar ``t`` and ``(n, k)`` otherwise.
         """
         ts = np.atleast_1d(np.asarray(t, dtype=float))
-        out = np.column_stack([self._segment_at(float(tk), j)(float(tk)) for tk in ts])
+        if j is not None:
+            out = np.column_stack([self._segment_at(float(tk), j)(float(tk)) for tk in ts])
+            return out[:, 0] if np.ndim(t) == 0 else out
+        which = self.segment_index(ts)
+        out = np.empty((len(self.state_names), ts.size))
+        bounds = np.flatnonzero(np.diff(which)) + 1
+        for chunk in np.split(np.arange(ts.size), bounds):
+            if chunk.size:
+                out[:, chunk] = self.segments[which[chunk[0]]](ts[chunk]).reshape(
+                    len(self.state_names), chunk.size)
         return out[:, 0] if np.ndim(t) == 0 else out
+
+    def segment_index(self, t: np.ndarray) -> np.ndarray:
+        """Index of the segment holding each time (the last one at a jump instant)."""
+        starts = np.array([s.t_start for s in self.segments])
+        ends = np.array([s.t_end for s in self.segments])
+        ts = np.asarray(t, dtype=float)
+        which = np.searchsorted(starts, ts, side="right") - 1
+        bad = (which < 0) | (ts > ends[np.clip(which, 0, None)])
+        if np.any(bad):
+            first = float(ts[np.argmax(bad)])
+            span = (self.segments[0].t_start, self.segments[-1].t_end)
+            raise ValueError(f"t={first!r} is outside the simulated hybrid time {span}")
+        return which
 
     evaluate = __call__
 
     def mode_at(self, t: float, j: int | None = None) -> str:
         """The mode at time ``t`` (post-jump at a jump instant)."""
+        if j is None:
+            return self.segments[int(self.segment_index(np.array([float(t)]))[0])].mode
         return self._segment_at(float(t), j).mode
 
     def sample(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
