@@ -16,6 +16,7 @@ from hybridlab.errors import (
 from hybridlab.graph import mode_graph, to_dot
 from hybridlab.model import (
     Initial,
+    Mechanics,
     Mode,
     Model,
     Parameter,
@@ -47,6 +48,7 @@ __all__ = [
     "ExpressionError",
     "HybridlabError",
     "Initial",
+    "Mechanics",
     "Mode",
     "Model",
     "ModelError",

@@ -11,6 +11,7 @@ from hybridlab.model.loader import (
 )
 from hybridlab.model.schema import (
     Initial,
+    Mechanics,
     Mode,
     Model,
     Parameter,
@@ -22,6 +23,7 @@ from hybridlab.model.schema import (
 
 __all__ = [
     "Initial",
+    "Mechanics",
     "Mode",
     "Model",
     "Parameter",

@@ -251,6 +251,12 @@ def _mechanics(model: Model, names: Mapping[str, sp.Expr]) -> SymbolicMechanics 
     global_names = {k: v for k, v in names.items() if not str(k).startswith("_")}
     kinetic = _parse(mech.kinetic, global_names, "mechanics.kinetic")
     potential = _parse(mech.potential, global_names, "mechanics.potential")
+    for key, expr in (("mechanics.kinetic", kinetic), ("mechanics.potential", potential)):
+        local = sorted(str(s)[len("_local_"):] for s in expr.free_symbols
+                       if str(s).startswith("_local_"))
+        if local:
+            raise _fail("the energies cannot depend on mode-local definitions (use them in "
+                        "mechanics.forces)", key, local[0])
     return SymbolicMechanics(
         coordinates=tuple(state_names.index(n) for n in mech.coordinates),
         velocities=tuple(state_names.index(n) for n in mech.velocities),

@@ -5,6 +5,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
+import numpy as np
+
 from hybridlab.model.loader import load_model
 from hybridlab.model.schema import Model
 from hybridlab.simulation.engine import run
@@ -96,9 +98,13 @@ def simulate(
         sc = spec.scenarios[scenario]
     if t_end is None:
         if sc is None:
-            raise ValueError("t_end is required (the model has no scenario that gives it)")
+            others = ", ".join(spec.scenarios)
+            hint = f"; pass one of its scenarios ({others})" if others else ""
+            raise ValueError(f"t_end is required: give t_end or a scenario{hint}")
         t_end = sc.t_end
     t0 = t_start if t_start is not None else (sc.t_start if sc else 0.0)
+    if not (np.isfinite(float(t_end)) and np.isfinite(float(t0))):
+        raise ValueError(f"t_end and t_start must be finite (got t_end={t_end!r}, t_start={t0!r})")
     if not float(t_end) > float(t0):
         raise ValueError(f"t_end must be greater than t_start (got t_end={t_end!r}, "
                          f"t_start={t0!r})")

@@ -176,6 +176,8 @@ class SimulationResult:
         single = isinstance(expressions, str)
         values = Observer(self.compiled, [expressions] if single else list(expressions)
                           ).evaluate(self, t)
+        if t is not None and np.ndim(t) == 0:
+            values = values[:, 0]
         return values[0] if single else values
 
     # ----- views ---------------------------------------------------------------------------
@@ -312,9 +314,11 @@ class SimulationResult:
             path, t=self.t, j=self.j, y=self.y, state_names=np.array(self.state_names),
             modes=np.array(self.modes), status=np.array(self.status.name),
             event_t=np.array([e.t for e in events]), event_j=np.array([e.j for e in events]),
-            event_transition=np.array([e.transition for e in events]),
-            event_pre=np.array([[e.pre[n] for n in self.state_names] for e in events]),
-            event_post=np.array([[e.post[n] for n in self.state_names] for e in events]),
+            event_transition=np.array([e.transition for e in events], dtype=str),
+            event_pre=np.array([[e.pre[n] for n in self.state_names] for e in events],
+                               dtype=float).reshape(len(events), len(self.state_names)),
+            event_post=np.array([[e.post[n] for n in self.state_names] for e in events],
+                                dtype=float).reshape(len(events), len(self.state_names)),
         )
 
     def save(self, path: str | Path) -> None:
