@@ -128,3 +128,13 @@ def test_profiles_reach_the_target_distance(trolley):
     modes = [m for _, _, m in fourth.mode_trace() if m.startswith("p4")]
     visited = [m for i, m in enumerate(modes) if i == 0 or m != modes[i - 1]]
     assert visited == [f"p4_{k}" for k in range(1, 8)]
+
+
+def test_sensor_latency_delays_the_stop_by_exactly_the_latency(trolley):
+    latency = 1 / 1650  # the sensors' switching frequency
+    result = hybridlab.simulate(trolley, t_end=1.5, params={"latency": latency})
+    detect = next(e for e in result.jumps if e.transition == "detect")
+    stop = next(e for e in result.jumps if e.transition == "stop")
+    assert stop.t - detect.t == pytest.approx(latency, abs=1e-12)
+    # the recorded position is the cart's position when the delayed event arrives
+    assert stop.post["x_e"] == stop.pre["x"] > detect.pre["x"]
