@@ -216,6 +216,16 @@ class _ModeScope:
         self.mapping = {_local_symbol(n): e for n, e in local.items()}
         self.missing = {_local_symbol(n): n for n in all_local if n not in local}
 
+    def relations(self, texts: list[str], names: Mapping[str, sp.Expr],
+                  key: str) -> tuple[Inequality, ...]:
+        """Parse a list of relation texts (``key[i]``) in this mode's scope."""
+        out: list[Inequality] = []
+        for i, text in enumerate(texts):
+            k = f"{key}[{i}]"
+            out.extend(Inequality(self.apply(r.expr, k), r.strict, r.text)
+                       for r in _relations(text, names, k))
+        return tuple(out)
+
     def apply(self, expr: sp.Expr, key: str) -> sp.Expr:
         expr = expr.xreplace(self.mapping)
         for symbol, name in self.missing.items():
@@ -317,17 +327,13 @@ def build_symbolic(model: Model) -> SymbolicModel:
             if s in flow_texts else None
             for s in state_names
         )
-        invariants: list[Inequality] = []
-        for i, text in enumerate(mode.invariant):
-            k = f"{key}.invariant[{i}]"
-            invariants.extend(Inequality(scope.apply(r.expr, k), r.strict, r.text)
-                              for r in _relations(text, names, k))
+        invariants = scope.relations(mode.invariant, names, f"{key}.invariant")
         forces = tuple(
             scope.apply(_parse(force_texts[c], names, f"mechanics.forces.{c}"),
                         f"mechanics.forces.{c}") if c in force_texts else sp.Integer(0)
             for c in (model.mechanics.coordinates if model.mechanics else ())
         )
-        modes[mode_name] = SymbolicMode(mode_name, flow, tuple(invariants), forces, local)
+        modes[mode_name] = SymbolicMode(mode_name, flow, invariants, forces, local)
 
     transitions: list[SymbolicTransition] = []
     seen_names: set[str] = set()
@@ -360,11 +366,7 @@ def build_symbolic(model: Model) -> SymbolicModel:
                                      ("phase", tr.schedule.phase)))
         for source in sources:
             scope = scopes[source]
-            guard: list[Inequality] = []
-            for i, text in enumerate(tr.guard):
-                k = f"{key}.guard[{i}]"
-                guard.extend(Inequality(scope.apply(r.expr, k), r.strict, r.text)
-                             for r in _relations(text, names, k))
+            guard = scope.relations(tr.guard, names, f"{key}.guard")
             reset = tuple(
                 scope.apply(_parse(tr.reset[s], names, f"{key}.reset.{s}"), f"{key}.reset.{s}")
                 if s in tr.reset else sym
@@ -373,7 +375,7 @@ def build_symbolic(model: Model) -> SymbolicModel:
             transitions.append(SymbolicTransition(
                 index=len(transitions), name=tr.name, source=source,
                 target=source if tr.target == "*" else tr.target,
-                guard=tuple(guard), reset=reset, priority=tr.priority,
+                guard=guard, reset=reset, priority=tr.priority,
                 period=period, phase=phase if phase is not None else sp.Integer(0),
                 declared=declared,
             ))
