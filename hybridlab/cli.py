@@ -14,7 +14,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from hybridlab.errors import HybridlabError, ModelError
+from hybridlab.errors import HybridlabError, ModelError, SimulationError
 from hybridlab.graph import to_dot
 from hybridlab.model.loader import load_model, model_json_schema
 from hybridlab.model.schema import Model
@@ -195,6 +195,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except _UsageError as exc:
         print(f"hybridlab: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    except SimulationError as exc:  # the run could not go on (e.g. --zeno error): not a user error
+        text = " ".join(str(exc).split())
+        print(f"hybridlab: error: {text}", file=sys.stderr)
+        return EXIT_INCOMPLETE
     except (ModelError, ValueError, TypeError, OSError, HybridlabError) as exc:
         text = " ".join(str(exc).split())
         print(f"hybridlab: error: {text}", file=sys.stderr)

@@ -333,3 +333,13 @@ def test_python_dash_m_runs() -> None:
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert done.stdout == hybridlab.to_dot(hybridlab.load_model(THERMOSTAT))
+
+
+def test_zeno_error_policy_exits_3_with_one_line(capsys, models_dir):
+    from hybridlab.cli import main
+
+    code = main(["simulate", str(models_dir / "bouncing_ball.toml"), "--scenario", "zeno",
+                 "--zeno", "error"])
+    err = capsys.readouterr().err
+    assert code == 3
+    assert err.count("\n") == 1 and err.startswith("hybridlab: error: Zeno behaviour")
