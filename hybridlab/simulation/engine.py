@@ -157,7 +157,8 @@ class _Run:
     def guard_state(self, tr: CompiledTransition, mode: CompiledMode, t: float,
                     x: np.ndarray) -> tuple[float, float]:
         """Guard value G = min_i g_i (holds when G >= 0) and its time derivative."""
-        assert tr.guard is not None  # noqa: S101
+        if tr.guard is None:
+            raise SimulationError(f"transition {tr.name!r} has no guard to evaluate")
         g = tr.guard.values(t, x, self.p, _NO_SIGMA)
         f = mode.flow(t, x, self.p, self.sigma_at(mode, t, x))
         dg = tr.guard.derivative(t, x, self.p, _NO_SIGMA, f)

@@ -30,6 +30,12 @@ def _sdot(mode: CompiledMode, t: float, x: np.ndarray, p: np.ndarray,
     return mode.switch_fields.derivative(t, x, p, sigma, f)
 
 
+def _dsigma(mode: CompiledMode):
+    if mode.flow_dsigma is None:
+        raise SimulationError(f"mode {mode.name!r} has no discontinuity to slide on")
+    return mode.flow_dsigma
+
+
 def _require_affine(mode: CompiledMode, sliding: Sequence[int]) -> None:
     if not mode.affine_in_sigma:
         names = ", ".join(mode.switches[k].text for k in sliding)
@@ -50,8 +56,7 @@ def equivalent_sigma(mode: CompiledMode, t: float, x: np.ndarray, p: np.ndarray,
     f0 = mode.flow(t, x, p, base)
     b = mode.switch_fields.derivative(t, x, p, base, f0)[sliding]
     grad = mode.switch_fields.gradient(t, x, p, base)[sliding]
-    assert mode.flow_dsigma is not None  # noqa: S101 - sliding implies switches exist
-    a = grad @ mode.flow_dsigma(t, x, p, base)[:, sliding]
+    a = grad @ _dsigma(mode)(t, x, p, base)[:, sliding]
     try:
         return np.linalg.solve(a, -b)
     except np.linalg.LinAlgError:
@@ -70,8 +75,7 @@ def equivalent_sigma_batch(mode: CompiledMode, t: np.ndarray, x: np.ndarray, p: 
     f0 = mode.flow.batch(t, x, p, base)
     b = mode.switch_fields.batch_derivative(t, x, p, base, f0)[sliding]
     grad = mode.switch_fields.gradient_batch(t, x, p, base)[sliding]
-    assert mode.flow_dsigma is not None  # noqa: S101
-    dsig = mode.flow_dsigma.batch(t, x, p, base)[:, sliding]
+    dsig = _dsigma(mode).batch(t, x, p, base)[:, sliding]
     a = np.einsum("snk,nrk->ksr", grad, dsig)
     try:
         return np.linalg.solve(a, -b.T[..., None])[..., 0].T
