@@ -258,7 +258,7 @@ class _Run:
         if mode.conditions is not None:
             cond = (mode.conditions.values.batch(tau, x, p, _NO_SIGMA),
                     mode.conditions.batch_derivative(tau, x, p, _NO_SIGMA, f))
-        n_guard_rows = sum(sl.stop - sl.start for sl in mode.guard_rows.values())
+        n_guard_rows = mode.invariant_offset
         cols = np.arange(tau.size)
         for r, row in enumerate(rows):
             if row.kind == "guard":
@@ -287,8 +287,8 @@ class _Run:
             return -float(np.min(mode.conditions.values(t, x, p, _NO_SIGMA)[
                 mode.guard_rows[row.ref]]))
         if row.kind == "invariant":
-            offset = sum(sl.stop - sl.start for sl in mode.guard_rows.values())
-            return float(mode.conditions.values(t, x, p, _NO_SIGMA)[offset + row.ref])
+            return float(mode.conditions.values(t, x, p, _NO_SIGMA)[mode.invariant_offset
+                                                                    + row.ref])
         if row.kind == "switch":
             return float(self.sigma[row.ref]
                          * mode.switch_fields.values(t, x, p, self.sigma)[row.ref])

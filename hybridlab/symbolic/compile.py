@@ -118,6 +118,11 @@ class CompiledMode:
     conditions: ScalarFields | None = None
     guard_rows: Mapping[int, slice] = field(default_factory=dict)
 
+    @property
+    def invariant_offset(self) -> int:
+        """Row of the first invariant in :attr:`conditions` (after every guard row)."""
+        return sum(sl.stop - sl.start for sl in self.guard_rows.values())
+
 
 @dataclass(frozen=True, eq=False)
 class CompiledModel:

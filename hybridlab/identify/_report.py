@@ -1,0 +1,75 @@
+"""Shared helpers of the result objects: text tables, JSON and lazy plotting."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+__all__ = ["format_table", "axes", "save_figure", "write_json"]
+
+
+def _cell(value: object) -> str:
+    if isinstance(value, float):
+        return "nan" if math.isnan(value) else f"{value:.6g}"
+    return str(value)
+
+
+def format_table(header: Iterable[str], rows: Iterable[Iterable[object]]) -> str:
+    """A plain-text table with aligned columns.
+
+    Examples
+    --------
+    >>> print(format_table(["name", "value"], [["c", 17.41], ["d", 257.0]]))
+    name  value
+    ----  -----
+    c     17.41
+    d     257
+    """
+    text = [[_cell(h) for h in header], *([_cell(c) for c in r] for r in rows)]
+    widths = [max(len(r[i]) for r in text) for i in range(len(text[0]))]
+    lines = ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip()
+             for r in text]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(lines)
+
+
+def axes(ax: Any = None, nrows: int = 1) -> Any:
+    """``ax`` itself, or new axes on a fresh figure.
+
+    matplotlib is imported only here, on demand, and through ``matplotlib.figure.Figure``
+    rather than pyplot, so no global figure registry or backend is touched.
+    """
+    if ax is not None:
+        return ax
+    try:
+        from matplotlib.figure import Figure
+    except ImportError as exc:  # optional dependency
+        raise ImportError("plotting needs matplotlib: pip install 'hybridlab[plot]'") from exc
+    fig = Figure(figsize=(6.4, 3.2 * nrows + 0.8))
+    return fig.subplots(nrows, 1, squeeze=nrows == 1)
+
+
+def save_figure(ax: Any, path: str | Path) -> None:
+    """Save the figure that holds ``ax`` (an axes or an array of axes)."""
+    first = ax.flat[0] if hasattr(ax, "flat") else ax
+    fig = first.figure
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+
+
+def write_json(path: str | Path, payload: Mapping[str, Any]) -> None:
+    """Write ``payload`` as indented JSON (non-finite floats become ``null``)."""
+
+    def clean(value: Any) -> Any:
+        if isinstance(value, float):
+            return value if math.isfinite(value) else None
+        if isinstance(value, Mapping):
+            return {str(k): clean(v) for k, v in value.items()}
+        if isinstance(value, list | tuple):
+            return [clean(v) for v in value]
+        return value
+
+    Path(path).write_text(json.dumps(clean(dict(payload)), indent=1) + "\n", encoding="utf-8")
