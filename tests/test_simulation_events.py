@@ -212,6 +212,7 @@ mode = "a"
 """
     result = hybridlab.simulate(model(text), t_end=3.0)
     assert len(result.jumps) == 1
+    assert result.jumps[0].grazing
     # a tangential root is ill-conditioned: located to sqrt(rounding), not to 1e-12
     assert result.jumps[0].t == pytest.approx(1.0, abs=1e-6)
 

@@ -230,7 +230,8 @@ def _search(candidates: np.ndarray, tau: np.ndarray, fa: np.ndarray, fb: np.ndar
                 t_min, f_min = b, f_b
         if f_min <= 0:
             t_hit = locate_crossing(lambda t: fn(t) - level, a, t_min, f_a, f_min, xtol)
-            return Trigger(index, t_hit, grazing=False)
+            # a minimum within the contact tolerance of zero is a tangential touch
+            return Trigger(index, t_hit, grazing=f_min >= -tol > -np.inf and f_b > tol)
         if f_min <= tol:
             return Trigger(index, t_min, grazing=True)
     return None
