@@ -16,6 +16,7 @@ from pathlib import Path
 
 from hybridlab.errors import HybridlabError, ModelError, SimulationError
 from hybridlab.graph import to_dot
+from hybridlab.identify.cli import add_identify_parser
 from hybridlab.model.loader import load_model, model_json_schema
 from hybridlab.model.schema import Model
 from hybridlab.simulation.api import simulate
@@ -172,6 +173,8 @@ def _parser() -> _Parser:
     graph.add_argument("model")
     graph.add_argument("--out", help="write the DOT text to this file")
     graph.set_defaults(run=_cmd_graph)
+
+    add_identify_parser(sub)
 
     schema = sub.add_parser("schema", help="print the JSON schema of model files")
     schema.add_argument("--out")

@@ -9,7 +9,7 @@ until the simulated edge sequence matches the measured one.
 The objective is built from *two-sensor passages*: two consecutive edges of the same
 kind (both rising or both falling) from the two sensors of ``pair``, less than
 ``max_pair_gap`` apart. A passage has a time (the midpoint) and a rate ``1/dt``; with the
-sensors ``d_s`` apart, ``d_s/dt`` is the tangential velocity of the trolley paper's
+sensors ``d_s`` apart, ``d_s/dt`` is the tangential velocity of the reference paper's
 eq. (7). Sequences are compared as functions of the passage index ``k``:
 
 * rates, for every measured passage: ``(rate_sim[k] - rate_meas[k]) / scale`` where a
@@ -380,15 +380,18 @@ def fit_events(
     fixed = {**(sc.parameters if sc else {}), **(params or {})}
     base = dict(zip(names, compiled.parameter_vector(fixed), strict=True))
     start = {n: float((initial_guess or {}).get(n, base[n])) for n in fit}
-    scale = np.array([abs(start[n]) if start[n] != 0 else 1.0 for n in fit])
-    lo, hi = [], []
-    for n, s in zip(fit, scale, strict=True):
-        if bounds and n in bounds:
-            b = bounds[n]
-        else:
+    lower, upper = [], []
+    for n in fit:
+        b = (bounds or {}).get(n)
+        if b is None:
             b = (0.0, np.inf) if start[n] >= 0 else (-np.inf, 0.0)
-        lo.append(b[0] / s)
-        hi.append(b[1] / s)
+        if not (len(b) == 2 and b[0] < b[1] and b[0] <= start[n] <= b[1]):
+            raise ValueError(f"bounds[{n!r}] must be (low, high) with low < high around the "
+                             f"start value {start[n]:g} (got {b!r})")
+        lower.append(float(b[0]))
+        upper.append(float(b[1]))
+    space = _Space(np.array([start[n] for n in fit]), np.array(lower), np.array(upper))
+    lo, hi = space.bounds()
     distance = (base[sensor_distance] if isinstance(sensor_distance, str)
                 and sensor_distance in base else sensor_distance)
     if isinstance(distance, str):
@@ -416,7 +419,7 @@ def fit_events(
         if count[0] >= limit[0]:
             raise _Budget
         count[0] += 1
-        values = {n: float(v * s) for n, v, s in zip(fit, theta, scale, strict=True)}
+        values = dict(zip(fit, space.values(theta).tolist(), strict=True))
         try:
             result = simulate(compiled, record_end + margin, scenario=scenario,
                               params={**fixed, **values}, **options)
@@ -425,10 +428,14 @@ def fit_events(
             edges = SensorEvents((), np.empty(0), ())
         sim = passages(edges, pair, max_pair_gap)
         n_edges = int(np.sum(edges.t <= record_end))
-        rate = np.zeros(n_m)
         k = min(n_m, len(sim))
-        rate[:k] = sim.rate[:k]
-        r_rate = (rate - measured.rate) / rate_scale
+        # matched passages: error of rate^2 (kinetic energy, nearly linear in friction
+        # coefficients) weighted by 1/(2 rate^3) so that it equals the gap error, whose
+        # timing noise is the same for every passage, in units of the median gap;
+        # missing passages: their measured rate relative to the median rate
+        rm = measured.rate
+        r_rate = -rm / rate_scale
+        r_rate[:k] = (sim.rate[:k] ** 2 - rm[:k] ** 2) / (2 * rm[:k] ** 3) * rate_scale
         r_time = np.zeros(n_m)
         if k:
             dt = measured.t[:k] - sim.t[:k]
@@ -439,7 +446,7 @@ def fit_events(
         cache[key] = out
         return out
 
-    theta0 = np.ones(len(fit))
+    theta0 = space.theta0()
     success, message = False, ""
     jac: np.ndarray | None = None
     x_opt = theta0
@@ -469,18 +476,18 @@ def fit_events(
             if jac is None or not np.allclose(x_opt, best):
                 jac = np.empty((len(residual), len(fit)))
                 for i in range(len(fit)):
-                    h = diff_step * max(abs(best[i]), 1.0)
+                    h = diff_step * max(abs(best[i]), 1.0)  # as least_squares' relative step
                     probe = best.copy()
                     probe[i] += h
                     jac[:, i] = (run(probe)[0] - residual) / h
             cov = float(residual @ residual) / dof * np.linalg.pinv(jac.T @ jac)
-            se = np.sqrt(np.clip(np.diag(cov), 0, None)) * scale
+            se = np.sqrt(np.clip(np.diag(cov), 0, None)) * space.derivative(best)
         except _Budget:
             pass
     k = min(n_m, len(sim))
     offset = float(np.mean(measured.t[:k] - sim.t[:k])) if k else float("nan")
     return EventFit(
-        parameters={n: float(v * s) for n, v, s in zip(fit, best, scale, strict=True)},
+        parameters=dict(zip(fit, space.values(best).tolist(), strict=True)),
         uncertainties={n: float(e) for n, e in zip(fit, se, strict=True)},
         initial=start, cost=0.5 * float(residual @ residual), n_evaluations=count[0],
         success=success, message=message, measured=measured, simulated=sim,
@@ -488,10 +495,46 @@ def fit_events(
         sensor_distance=None if distance is None else float(distance))
 
 
+class _Space:
+    """The optimiser's coordinates ``theta`` of the fitted parameters.
+
+    A parameter whose bounds keep its sign is optimised as ``1 + log(p / p0)`` (relative
+    changes, positivity for free, and friction-like decays are closer to linear in it);
+    any other as ``p / |p0|``. Both start at ``|theta| = 1`` so that relative finite
+    difference steps have a sensible size.
+    """
+
+    def __init__(self, p0: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
+        self.p0 = p0
+        self.lower, self.upper = lower, upper
+        self.log = (p0 != 0) & (((p0 > 0) & (lower >= 0)) | ((p0 < 0) & (upper <= 0)))
+        self.scale = np.where(p0 != 0, np.abs(p0), 1.0)
+
+    def theta0(self) -> np.ndarray:
+        return np.where(self.log, 1.0, self.p0 / self.scale)
+
+    def values(self, theta: np.ndarray) -> np.ndarray:
+        return np.where(self.log, self.p0 * np.exp(np.where(self.log, theta - 1.0, 0.0)),
+                        theta * self.scale)
+
+    def derivative(self, theta: np.ndarray) -> np.ndarray:
+        """``|dp / dtheta|`` (to turn standard errors of ``theta`` into those of ``p``)."""
+        return np.abs(np.where(self.log, self.values(theta), self.scale))
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio_lo, ratio_hi = self.lower / self.p0, self.upper / self.p0
+            lo_log = np.log(np.where(self.p0 > 0, ratio_lo, ratio_hi))
+            hi_log = np.log(np.where(self.p0 > 0, ratio_hi, ratio_lo))
+        lo = np.where(self.log, 1.0 + lo_log, self.lower / self.scale)
+        hi = np.where(self.log, 1.0 + hi_log, self.upper / self.scale)
+        return lo, hi
+
+
 def _simplex(x0: np.ndarray, step: float) -> np.ndarray:
     pts = [x0.copy()]
     for i in range(len(x0)):
         p = x0.copy()
-        p[i] *= 1 + step
+        p[i] += step
         pts.append(p)
     return np.array(pts)

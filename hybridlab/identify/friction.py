@@ -152,7 +152,8 @@ class FrictionFit:
             vv = np.linspace(0, np.max(np.abs(v)), 50) * sign
             ax.plot(vv, sign * line.c + line.d * vv, "-", lw=1)
         vv = np.linspace(-np.max(np.abs(v)), np.max(np.abs(v)), 201)
-        ax.plot(vv, self.predict(vv), "k--", lw=0.8, label=f"c={self.c:.4g} N, d={self.d:.4g} N s/m")
+        ax.plot(vv, self.predict(vv), "k--", lw=0.8,
+                label=f"c={self.c:.4g} N, d={self.d:.4g} N s/m")
         ax.set(xlabel="velocity [m/s]", ylabel="force [N]", title="steady-state friction")
         ax.legend(fontsize="small")
         return ax

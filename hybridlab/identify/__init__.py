@@ -1,0 +1,64 @@
+"""Parameter identification from measured data.
+
+Three methods, each a function returning a frozen result object with estimates,
+standard errors, residuals, a text table, a JSON summary and a plot:
+
+* :func:`fit_friction` -- Coulomb and viscous friction ``F = c sign(v) + d v`` from
+  steady-state runs in both directions (:mod:`hybridlab.identify.friction`);
+* :func:`fit_mass` -- the mass from the -40 dB/dec region of a position-over-force
+  frequency response, and eq. (4) ``1/(s (m s + d))`` with the reasons ``d`` is
+  unreliable (:mod:`hybridlab.identify.frequency`);
+* :func:`fit_events` -- any model parameters from sensor edges, by matching simulated
+  and measured edge sequences (:mod:`hybridlab.identify.events`).
+
+Data come in as :class:`FrictionData`, :class:`FrequencyData` and :class:`SensorEvents`
+(read from CSV by the ``read_*_csv`` functions); :mod:`hybridlab.identify.synthetic`
+makes realistic data from known truths; :mod:`hybridlab.identify.cli` holds the
+``identify`` subcommands.
+"""
+
+from hybridlab.identify.data import (
+    FrequencyData,
+    FrictionData,
+    SensorEvents,
+    read_events_csv,
+    read_frequency_csv,
+    read_friction_csv,
+    write_csv,
+)
+from hybridlab.identify.errors import DataError
+from hybridlab.identify.events import EventFit, Passages, edges_from_result, fit_events, passages
+from hybridlab.identify.frequency import (
+    Eq4Fit,
+    MassFit,
+    SlopeRegion,
+    find_slope_region,
+    fit_mass,
+    local_slopes,
+)
+from hybridlab.identify.friction import FrictionFit, LineFit, fit_friction
+
+__all__ = [
+    "DataError",
+    "Eq4Fit",
+    "EventFit",
+    "FrequencyData",
+    "FrictionData",
+    "FrictionFit",
+    "LineFit",
+    "MassFit",
+    "Passages",
+    "SensorEvents",
+    "SlopeRegion",
+    "edges_from_result",
+    "find_slope_region",
+    "fit_events",
+    "fit_friction",
+    "fit_mass",
+    "local_slopes",
+    "passages",
+    "read_events_csv",
+    "read_frequency_csv",
+    "read_friction_csv",
+    "write_csv",
+]

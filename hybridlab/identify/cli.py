@@ -1,0 +1,192 @@
+"""The ``identify`` subcommands, ready to be attached to the main command line.
+
+``add_identify_parser(subparsers)`` adds::
+
+    identify friction DATA.csv [--v-min V] [--out FILE.json] [--plot FILE.png]
+    identify mass DATA.csv [--slope-tol TOL] [--out FILE.json] [--plot FILE.png]
+    identify events MODEL DATA.csv --scenario NAME --fit NAME[,NAME...]
+                    --sensor ID=RISING,FALLING --sensor ID=RISING,FALLING [...]
+
+Each subcommand prints a table and sets ``run=<function(args) -> int>``; user errors
+are raised as ``ValueError`` (or hybridlab errors) for the caller to print.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+from typing import Any
+
+from hybridlab.identify._report import save_figure, write_json
+from hybridlab.identify.data import read_events_csv, read_frequency_csv, read_friction_csv
+from hybridlab.identify.events import fit_events
+from hybridlab.identify.frequency import fit_mass
+from hybridlab.identify.friction import fit_friction
+
+__all__ = ["add_identify_parser", "main"]
+
+
+def _finish(result: Any, args: argparse.Namespace) -> int:
+    print(result.table())
+    if args.out:
+        write_json(args.out, result.as_dict())
+        print(f"wrote {args.out}")
+    if args.plot:
+        save_figure(result.plot(), args.plot)
+        print(f"wrote {args.plot}")
+    return 0
+
+
+def _run_friction(args: argparse.Namespace) -> int:
+    return _finish(fit_friction(read_friction_csv(args.data), v_min=args.v_min), args)
+
+
+def _run_mass(args: argparse.Namespace) -> int:
+    return _finish(fit_mass(read_frequency_csv(args.data), slope_tol=args.slope_tol,
+                            window_decades=args.window), args)
+
+
+def _pairs(items: list[str], option: str) -> dict[str, str]:
+    out = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise ValueError(f"{option} expects NAME=VALUE (got {item!r})")
+        out[key.strip()] = value.strip()
+    return out
+
+
+def _number(text: str, option: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise ValueError(f"{option} expects a number (got {text!r})") from None
+
+
+def _run_events(args: argparse.Namespace) -> int:
+    sensors = {}
+    for key, value in _pairs(args.sensor, "--sensor").items():
+        names = [n.strip() for n in value.split(",")]
+        if len(names) != 2 or not all(names):
+            raise ValueError(f"--sensor expects ID=RISING,FALLING (got {key}={value})")
+        sensors[key] = (names[0], names[1])
+    if len(sensors) < 2:
+        raise ValueError("--sensor must be given for two sensors, e.g. "
+                         "--sensor 1=on1,off1 --sensor 2=on2,off2")
+    fit = [n.strip() for n in args.fit.split(",") if n.strip()]
+    guess = {k: _number(v, "--initial") for k, v in _pairs(args.initial, "--initial").items()}
+    params = {k: _number(v, "--param") for k, v in _pairs(args.param, "--param").items()}
+    distance: float | str | None = args.sensor_distance
+    if distance is not None:
+        with contextlib.suppress(ValueError):  # otherwise a parameter name
+            distance = float(distance)
+    result = fit_events(args.model, read_events_csv(args.data), fit=fit, sensors=sensors,
+                        scenario=args.scenario, params=params, initial_guess=guess,
+                        t_end=args.t_end, max_evaluations=args.max_evaluations,
+                        method=args.method, sensor_distance=distance,
+                        max_pair_gap=args.max_pair_gap)
+    return _finish(result, args)
+
+
+def _outputs(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--out", metavar="FILE.json",
+                        help="write the result as JSON; its 'parameters' maps names to values")
+    parser.add_argument("--plot", metavar="FILE.png", help="plot the fit against the data "
+                        "(needs matplotlib)")
+
+
+def add_identify_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Add ``identify {friction,mass,events}`` to an argparse ``subparsers`` object.
+
+    Parameters
+    ----------
+    subparsers
+        The object returned by :meth:`argparse.ArgumentParser.add_subparsers`.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The ``identify`` parser.
+
+    Examples
+    --------
+    >>> parser = argparse.ArgumentParser(prog="hybridlab")
+    >>> _ = add_identify_parser(parser.add_subparsers(dest="command"))
+    >>> args = parser.parse_args(["identify", "friction", "runs.csv"])
+    >>> args.run.__name__, args.data
+    ('_run_friction', 'runs.csv')
+    """
+    identify = subparsers.add_parser(
+        "identify", help="identify parameters from measured data",
+        description="Identify parameters from measured data (CSV formats: "
+                    "docs/identification.md).")
+    sub = identify.add_subparsers(dest="identify_command", metavar="METHOD")
+    sub.required = True
+
+    friction = sub.add_parser("friction", help="c and d of F = c sign(v) + d v from "
+                              "steady-state runs (columns velocity, force)")
+    friction.add_argument("data", metavar="DATA.csv")
+    friction.add_argument("--v-min", type=float, default=None,
+                          help="exclude runs with |v| <= V (default: automatic rule)")
+    _outputs(friction)
+    friction.set_defaults(run=_run_friction)
+
+    mass = sub.add_parser("mass", help="mass m from the -40 dB/dec region of a frequency "
+                          "response (columns frequency_hz, magnitude_db[, phase_deg])")
+    mass.add_argument("data", metavar="DATA.csv")
+    mass.add_argument("--slope-tol", type=float, default=3.0,
+                      help="accepted deviation from -40 dB/dec (default 3)")
+    mass.add_argument("--window", type=float, default=0.3,
+                      help="sliding-window width in decades (default 0.3)")
+    _outputs(mass)
+    mass.set_defaults(run=_run_mass)
+
+    events = sub.add_parser("events", help="model parameters from sensor edges "
+                            "(columns sensor, t, edge)")
+    events.add_argument("model", metavar="MODEL")
+    events.add_argument("data", metavar="DATA.csv")
+    events.add_argument("--scenario", required=True, help="the experiment's scenario")
+    events.add_argument("--fit", required=True, metavar="NAME[,NAME...]",
+                        help="parameters to estimate")
+    events.add_argument("--sensor", action="append", required=True,
+                        metavar="ID=RISING,FALLING",
+                        help="sensor id and the transitions of its edges (repeat; the first "
+                             "two form the passages)")
+    events.add_argument("--initial", action="append", metavar="NAME=VALUE",
+                        help="start value of a fitted parameter")
+    events.add_argument("--param", action="append", metavar="NAME=VALUE",
+                        help="fixed parameter override")
+    events.add_argument("--t-end", type=float, default=None,
+                        help="end of the record (default: the scenario's t_end)")
+    events.add_argument("--sensor-distance", default=None,
+                        help="distance of the two sensors, or the parameter holding it")
+    events.add_argument("--max-pair-gap", type=float, default=0.2,
+                        help="largest time between the edges of a passage (s)")
+    events.add_argument("--max-evaluations", type=int, default=30,
+                        help="most simulations to run (default 30)")
+    events.add_argument("--method", choices=("least_squares", "nelder-mead"),
+                        default="least_squares")
+    _outputs(events)
+    events.set_defaults(run=_run_events)
+    return identify
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Stand-alone entry point (``python -m hybridlab.identify.cli identify ...``).
+
+    User errors print one line and return 2.
+    """
+    from hybridlab.errors import HybridlabError
+
+    parser = argparse.ArgumentParser(prog="hybridlab")
+    add_identify_parser(parser.add_subparsers(dest="command", required=True))
+    args = parser.parse_args(argv)
+    try:
+        return int(args.run(args))
+    except (HybridlabError, ValueError, TypeError, OSError) as exc:
+        print(f"error: {exc}")
+        return 2
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
