@@ -95,7 +95,7 @@ class _Run:
                           if (sched := tr.period_and_phase(p)) is not None}
         self.h_last: float | None = None
         self.zeno = ZenoTracker(options.zeno_window, options.zeno_tol, 4 * options.event_tol)
-        self.stats = {"steps": 0, "rejected_scans": 0, "refinements": 0, "events_located": 0,
+        self.stats = {"steps": 0, "refinements": 0, "events_located": 0,
                       "segments": 0}
 
     # ----- small helpers -------------------------------------------------------------------
@@ -248,8 +248,7 @@ class _Run:
             eq = equivalent_sigma_batch(mode, tau, x, p, sigma, self.sliding)
             sig_k = np.repeat(sigma[:, None], tau.size, axis=1)
             sig_k[list(self.sliding)] = eq
-            f = np.column_stack([mode.flow(tau[i], x[:, i], p, sig_k[:, i])
-                                 for i in range(tau.size)])
+            f = mode.flow.batch(tau, x, p, sig_k)  # sigma per sample: rows broadcast
         else:
             f = mode.flow.batch(tau, x, p, sigma)
         phi = np.empty((len(rows), tau.size))
