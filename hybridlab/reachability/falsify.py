@@ -1,0 +1,626 @@
+"""Falsification: search the initial set for a simulated trajectory that violates a spec.
+
+Cheap and incomplete by design: a violation it finds is real (a concrete,
+replayable simulation), but finding none proves nothing. The search
+
+1. simulates from the centre, the corners (all of them up to ``max_corner_dims``
+   uncertain dimensions, a random subset beyond) and Latin-hypercube samples of
+   the uncertain initial states, uncertain parameters and inputs;
+2. evaluates every spec's margin along the dense trajectory of each run: on the
+   stored points and three interior points of every integrator step, then the
+   lowest local minima are refined with a bounded scalar minimiser on the dense
+   output, and the first violation instant is located by a root finder;
+3. if nothing is violated, minimises each spec's margin locally (scipy
+   ``minimize``, Powell, bounded to the uncertain box) from its best sample.
+
+Time-varying inputs are only tried as *constants* within their bounds (each
+sample draws one constant value per input); a violation that needs a varying
+input can be missed.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy import optimize
+from scipy.stats import qmc
+
+from hybridlab.model.loader import load_model
+from hybridlab.model.schema import Model
+from hybridlab.reachability.spec import Spec
+from hybridlab.simulation.api import simulate
+from hybridlab.simulation.options import SimulationOptions
+from hybridlab.simulation.result import SimulationResult
+from hybridlab.symbolic.compile import CompiledModel, compile_model
+from hybridlab.symbolic.functions import VectorFunction
+
+__all__ = ["Problem", "FalsifyOptions", "Counterexample", "SpecMargin", "Falsification",
+           "resolve_problem", "falsify", "trajectory_margin"]
+
+_EMPTY = np.empty(0)
+_INTERIOR = (0.25, 0.5, 0.75)  # extra dense points per integrator step
+
+
+def _interval(value: Any, what: str) -> tuple[float, float]:
+    if isinstance(value, int | float | np.floating | np.integer):
+        lo = hi = float(value)
+    else:
+        try:
+            lo, hi = (float(v) for v in value)
+        except (TypeError, ValueError):
+            raise ValueError(f"{what} must be a number or a (lo, hi) pair (got {value!r})"
+                             ) from None
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        raise ValueError(f"{what} must be finite (got {value!r})")
+    if lo > hi:
+        raise ValueError(f"{what} needs lo <= hi (got {value!r})")
+    return lo, hi
+
+
+@dataclass(frozen=True)
+class Problem:
+    """A verification problem with every default resolved (scenario, model values).
+
+    Attributes
+    ----------
+    compiled : CompiledModel
+    mode : str
+        Initial mode.
+    t_start, t_end : float
+    x0 : numpy.ndarray
+        Nominal initial state (point states and the centre of boxes).
+    p0 : numpy.ndarray
+        Nominal parameter vector (scenario values, fixed overrides, centres).
+    state_box : mapping of str to (lo, hi)
+        Uncertain initial states given as intervals.
+    initial_set : object or None
+        A set object over all states (``Box``, ``Zonotope``, ``Polytope``) when
+        the initial set was given that way; then ``state_box`` is empty.
+    param_box, input_box : mapping of str to (lo, hi)
+        Uncertain constant parameters and time-varying inputs.
+    options : SimulationOptions
+        Settings every simulation uses (the scenario's integrator settings included).
+    scenario : str or None
+    """
+
+    compiled: CompiledModel = field(repr=False)
+    mode: str
+    t_start: float
+    t_end: float
+    x0: np.ndarray
+    p0: np.ndarray
+    state_box: Mapping[str, tuple[float, float]]
+    param_box: Mapping[str, tuple[float, float]]
+    input_box: Mapping[str, tuple[float, float]]
+    options: SimulationOptions
+    scenario: str | None = None
+    initial_set: Any = None
+
+    @property
+    def dims(self) -> int:
+        """Number of uncertain coordinates searched (set generators, box sides, params)."""
+        return (self._set_dims() + len(self.state_box) + len(self.param_box)
+                + len(self.input_box))
+
+    def _set_dims(self) -> int:
+        s = self.initial_set
+        if s is None:
+            return 0
+        if hasattr(s, "generators"):
+            return int(np.asarray(s.generators).shape[1])
+        return len(self.compiled.state_names)
+
+    def point(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """Map ``u`` in the unit cube to ``(x0, p)``; ``None`` outside a polytope set."""
+        u = np.asarray(u, dtype=float)
+        x = self.x0.copy()
+        p = self.p0.copy()
+        k = 0
+        s = self.initial_set
+        if s is not None:
+            m = self._set_dims()
+            w = u[:m]
+            if hasattr(s, "generators"):
+                x = np.asarray(s.center, dtype=float) + np.asarray(s.generators) @ (2 * w - 1)
+            else:
+                lo, hi = np.asarray(s.bounds(), dtype=float).T
+                x = lo + w * (hi - lo)
+                if hasattr(s, "A") and not bool(np.all(s.contains_points(x[None, :]))):
+                    return None
+            k = m
+        names = self.compiled.state_names
+        for name, (lo, hi) in self.state_box.items():
+            x[names.index(name)] = lo + u[k] * (hi - lo)
+            k += 1
+        pnames = self.compiled.parameter_names
+        for box in (self.param_box, self.input_box):
+            for name, (lo, hi) in box.items():
+                p[pnames.index(name)] = lo + u[k] * (hi - lo)
+                k += 1
+        return x, p
+
+    def run(self, x0: np.ndarray, p: np.ndarray) -> SimulationResult:
+        """Simulate from ``x0`` with parameter vector ``p`` (deterministic)."""
+        return _simulate(self.compiled, self.mode, self.t_start, self.t_end, self.options,
+                         dict(zip(self.compiled.state_names, map(float, x0), strict=True)),
+                         dict(zip(self.compiled.parameter_names, map(float, p), strict=True)))
+
+
+def _simulate(compiled: CompiledModel, mode: str, t_start: float, t_end: float,
+              options: SimulationOptions, initial: Mapping[str, float],
+              params: Mapping[str, float]) -> SimulationResult:
+    # every setting explicit, so a scenario of the model cannot change the run on replay
+    return simulate(compiled, t_end, params=params, initial=initial, mode=mode, t_start=t_start,
+                    method=options.method, rtol=options.rtol, atol=options.atol,
+                    max_step=options.max_step, options=options)
+
+
+def resolve_problem(
+    model: Model | CompiledModel | str | Path,
+    *,
+    initial: Mapping[str, float | tuple[float, float]] | Any,
+    t_end: float,
+    mode: str | None = None,
+    scenario: str | None = None,
+    params: Mapping[str, float | tuple[float, float]] | None = None,
+    inputs: Mapping[str, tuple[float, float]] | None = None,
+    simulation: SimulationOptions | None = None,
+) -> Problem:
+    """Check the arguments of a verification problem and resolve its defaults.
+
+    The scenario supplies parameter values, initial values, the initial mode,
+    ``t_start`` and integrator settings exactly as :func:`hybridlab.simulate`
+    takes them; ``params`` and ``initial`` override them (a pair is an interval).
+
+    Examples
+    --------
+    >>> pb = resolve_problem("models/bouncing_ball.toml", initial={"h": (5.0, 10.0)},
+    ...                      t_end=2.0, params={"e": (0.7, 0.9)})
+    >>> pb.state_box, pb.param_box, pb.dims
+    ({'h': (5.0, 10.0)}, {'e': (0.7, 0.9)}, 2)
+    """
+    if isinstance(model, str | Path):
+        model = load_model(model)
+    compiled = model if isinstance(model, CompiledModel) else compile_model(model)
+    spec = compiled.model
+    if scenario is None and "default" in spec.scenarios:
+        scenario = "default"
+    if scenario is not None and scenario not in spec.scenarios:
+        known = ", ".join(spec.scenarios) or "none"
+        raise ValueError(f"scenario: unknown scenario {scenario!r}; the model has: {known}")
+    sc = spec.scenarios[scenario] if scenario is not None else None
+    t_start = float(sc.t_start) if sc is not None else 0.0
+    t_end = float(t_end)
+    if not (math.isfinite(t_end) and t_end > t_start):
+        raise ValueError(f"t_end must be finite and greater than t_start = {t_start:g} "
+                         f"(got {t_end!r})")
+    mode = mode or (sc.mode if sc is not None and sc.mode else spec.initial.mode)
+    if mode not in spec.modes:
+        raise ValueError(f"mode: unknown mode {mode!r}; the model has: {', '.join(spec.modes)}")
+    pnames, snames = compiled.parameter_names, compiled.state_names
+    fixed_p: dict[str, float] = dict(sc.parameters) if sc is not None else {}
+    param_box: dict[str, tuple[float, float]] = {}
+    for name, value in (params or {}).items():
+        if name not in pnames:
+            raise ValueError(f"params: unknown parameter {name!r}; expected one of: "
+                             f"{', '.join(pnames)}")
+        lo, hi = _interval(value, f"params[{name!r}]")
+        fixed_p[name] = 0.5 * (lo + hi)
+        if hi > lo:
+            param_box[name] = (lo, hi)
+    input_box: dict[str, tuple[float, float]] = {}
+    for name, value in (inputs or {}).items():
+        if name not in pnames:
+            raise ValueError(f"inputs: unknown parameter {name!r} (an input is a parameter "
+                             f"that varies in time); expected one of: {', '.join(pnames)}")
+        if params and name in params:
+            raise ValueError(f"inputs: {name!r} is also given in params; give it once")
+        lo, hi = _interval(value, f"inputs[{name!r}]")
+        fixed_p[name] = 0.5 * (lo + hi)
+        input_box[name] = (lo, hi)
+    fixed_x: dict[str, float] = dict(sc.initial) if sc is not None else {}
+    state_box: dict[str, tuple[float, float]] = {}
+    initial_set = None
+    if isinstance(initial, Mapping):
+        for name, value in initial.items():
+            if name not in snames:
+                raise ValueError(f"initial: unknown state {name!r}; expected one of: "
+                                 f"{', '.join(snames)}")
+            lo, hi = _interval(value, f"initial[{name!r}]")
+            fixed_x[name] = 0.5 * (lo + hi)
+            if hi > lo:
+                state_box[name] = (lo, hi)
+    elif hasattr(initial, "bounds") and hasattr(initial, "contains_points"):
+        bounds = np.asarray(initial.bounds(), dtype=float)
+        if bounds.shape != (len(snames), 2):
+            raise ValueError(f"initial: a set must be over all {len(snames)} states "
+                             f"({', '.join(snames)}); got bounds of shape {bounds.shape}")
+        fixed_x.update(zip(snames, bounds.mean(axis=1), strict=True))
+        initial_set = initial
+    else:
+        raise TypeError(f"initial must be a mapping of state names to values or (lo, hi), or a "
+                        f"Box/Zonotope/Polytope (got {type(initial).__name__})")
+    x0 = compiled.state_vector(fixed_x)
+    p0 = compiled.parameter_vector(fixed_p)
+    base = simulation or SimulationOptions()
+    if sc is not None and simulation is None:
+        taken = {k: getattr(sc, k) for k in ("method", "rtol", "atol", "max_step")
+                 if getattr(sc, k) is not None}
+        base = replace(base, **taken)
+    return Problem(compiled=compiled, mode=mode, t_start=t_start, t_end=t_end, x0=x0, p0=p0,
+                   state_box=state_box, param_box=param_box, input_box=input_box,
+                   options=base, scenario=scenario, initial_set=initial_set)
+
+
+# ------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class FalsifyOptions:
+    """Budget and seed of the falsification search.
+
+    Attributes
+    ----------
+    samples : int
+        Latin-hypercube samples of the uncertain box.
+    max_corner_dims : int
+        Up to this many uncertain dimensions every corner is simulated;
+        beyond it ``corners`` random corners are.
+    corners : int
+        Random corners when there are more dimensions than ``max_corner_dims``.
+    local_evals : int
+        Simulations each local optimisation may spend (0: no local search).
+    local_starts : int
+        Local optimisations per spec, from its best samples.
+    seed : int
+        Seed of the ``numpy.random.Generator`` (the search is deterministic).
+    """
+
+    samples: int = 16
+    max_corner_dims: int = 5
+    corners: int = 16
+    local_evals: int = 40
+    local_starts: int = 1
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("samples", "max_corner_dims", "corners", "local_evals", "local_starts"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or value < 0:
+                raise ValueError(f"FalsifyOptions.{name} must be a non-negative integer "
+                                 f"(got {value!r})")
+
+
+@dataclass(frozen=True)
+class Counterexample:
+    """A simulated trajectory from the initial set that violates a spec.
+
+    Attributes
+    ----------
+    spec : str
+        The violated spec.
+    t : float
+        The first instant the spec is violated (located by a root finder on the
+        dense output; the start time if the initial state already violates it).
+    mode : str
+        The mode at ``t``.
+    state : mapping of str to float
+        The state at ``t``.
+    margin : float
+        The most negative margin along the run (``< 0``; ``<= 0`` for a region).
+    t_worst : float
+        Where that margin is reached (refined by a bounded minimiser).
+    initial : mapping of str to float
+        The initial state (every state).
+    parameters : mapping of str to float
+        Every parameter value of the run (uncertain ones and inputs included).
+    inputs : mapping of str to float
+        The constant value chosen for each time-varying input.
+    initial_mode : str
+    t_start, t_end : float
+    options : SimulationOptions
+    """
+
+    spec: str
+    t: float
+    mode: str
+    state: Mapping[str, float]
+    margin: float
+    t_worst: float
+    initial: Mapping[str, float]
+    parameters: Mapping[str, float]
+    inputs: Mapping[str, float]
+    initial_mode: str
+    t_start: float
+    t_end: float
+    options: SimulationOptions = field(repr=False)
+    compiled: CompiledModel = field(repr=False, compare=False)
+
+    def replay(self) -> SimulationResult:
+        """Simulate this counterexample again (deterministic: the same run, bit for bit)."""
+        return _simulate(self.compiled, self.initial_mode, self.t_start, self.t_end,
+                         self.options, self.initial, self.parameters)
+
+    def as_dict(self) -> dict[str, Any]:
+        """A JSON-ready mapping."""
+        return {"spec": self.spec, "t": self.t, "mode": self.mode, "state": dict(self.state),
+                "margin": self.margin, "t_worst": self.t_worst, "initial": dict(self.initial),
+                "parameters": dict(self.parameters), "inputs": dict(self.inputs),
+                "initial_mode": self.initial_mode, "t_start": self.t_start, "t_end": self.t_end}
+
+
+@dataclass(frozen=True)
+class SpecMargin:
+    """The lowest margin of one spec along one run."""
+
+    spec: str
+    margin: float
+    t: float
+    mode: str | None
+    violation_t: float | None = None
+    violation_mode: str | None = None
+    violation_state: np.ndarray | None = field(default=None, repr=False)
+
+
+@dataclass(frozen=True)
+class Falsification:
+    """What the falsification search found.
+
+    Attributes
+    ----------
+    counterexample : Counterexample or None
+    margins : mapping of str to float
+        Per spec, the lowest margin over every simulated run (``inf`` if the
+        spec never applied).
+    runs : int
+        Simulations spent.
+    incomplete_runs : int
+        Runs that stopped before ``t_end`` (Zeno, invariant violation, failure).
+    time_s : float
+    """
+
+    counterexample: Counterexample | None
+    margins: Mapping[str, float]
+    runs: int
+    incomplete_runs: int
+    time_s: float
+
+
+class _Margins:
+    """Compiled rows of each spec, per mode."""
+
+    def __init__(self, compiled: CompiledModel, specs: Sequence[Spec]) -> None:
+        sym = compiled.symbolic
+        from hybridlab.model.checks import TIME
+
+        self.specs = tuple(specs)
+        self.fns: list[dict[str, VectorFunction]] = []
+        cache: dict[tuple, VectorFunction] = {}
+        for spec in self.specs:
+            per_mode = {}
+            for mode, rows in spec.rows.items():
+                if rows not in cache:
+                    cache[rows] = VectorFunction(rows, TIME, sym.states, sym.parameters, ())
+                per_mode[mode] = cache[rows]
+            self.fns.append(per_mode)
+
+
+def trajectory_margin(result: SimulationResult, spec: Spec, fn: Mapping[str, VectorFunction],
+                      p: np.ndarray) -> SpecMargin:
+    """The lowest margin of ``spec`` along ``result`` and its first violation.
+
+    Parameters
+    ----------
+    result : SimulationResult
+    spec : Spec
+    fn : mapping of mode to VectorFunction
+        The spec's rows compiled per mode (``(t, x, p, ())`` functions).
+    p : numpy.ndarray
+        The run's parameter vector.
+
+    Returns
+    -------
+    SpecMargin
+    """
+    best = SpecMargin(spec.text, math.inf, math.nan, None)
+    for seg in result.segments:
+        if seg.mode not in fn:
+            continue
+        f = fn[seg.mode]
+
+        def margin_at(t: float, seg=seg, f=f) -> float:
+            x = seg(float(t))
+            return float(spec.margin(f(float(t), x, p, _EMPTY)[:, None])[0])
+
+        if seg.t.size >= 2:
+            steps = np.diff(seg.t)
+            inner = [seg.t[:-1] + c * steps for c in _INTERIOR]
+            ts = np.sort(np.concatenate([seg.t, *inner]))
+        else:
+            ts = seg.t.copy()
+        values = spec.margin(f.batch(ts, seg(ts).reshape(len(result.state_names), ts.size),
+                                     p, _EMPTY))
+        refined = _refine_minima(ts, values, margin_at)
+        cand_t = np.concatenate([ts, [r[0] for r in refined]])
+        cand_v = np.concatenate([values, [r[1] for r in refined]])
+        k = int(np.argmin(cand_v))
+        if cand_v[k] < best.margin:
+            best = replace(best, margin=float(cand_v[k]), t=float(cand_t[k]), mode=seg.mode)
+        if best.violation_t is None:
+            bad = np.flatnonzero(spec.violated(cand_v))
+            if bad.size:
+                t_bad = float(np.min(cand_t[bad]))
+                t_v = _first_violation(spec, ts, values, t_bad, margin_at)
+                best = replace(best, violation_t=t_v, violation_mode=seg.mode,
+                               violation_state=np.asarray(seg(t_v), dtype=float))
+    return best
+
+
+def _refine_minima(ts: np.ndarray, values: np.ndarray, margin_at, count: int = 3
+                   ) -> list[tuple[float, float]]:
+    """Bounded scalar minimisation around the lowest interior local minima of the grid."""
+    if ts.size < 3:
+        return []
+    inner = np.flatnonzero((values[1:-1] <= values[:-2]) & (values[1:-1] <= values[2:])) + 1
+    out = []
+    for i in inner[np.argsort(values[inner])][:count]:
+        lo, hi = float(ts[i - 1]), float(ts[i + 1])
+        if not hi > lo:
+            continue
+        res = optimize.minimize_scalar(margin_at, bounds=(lo, hi), method="bounded",
+                                       options={"xatol": 1e-12 * max(1.0, abs(lo))})
+        if np.isfinite(res.fun):
+            out.append((float(res.x), float(res.fun)))
+    return out
+
+
+def _first_violation(spec: Spec, ts: np.ndarray, values: np.ndarray, t_bad: float,
+                     margin_at) -> float:
+    """The first instant the margin becomes violating, at or before ``t_bad``."""
+    ok = np.flatnonzero((ts < t_bad) & ~spec.violated(values))
+    if ok.size == 0 or spec.violated(values[0]):
+        return float(ts[0])
+    # the last good grid point before t_bad; between it and t_bad the margin crosses zero
+    lo = float(ts[ok[-1]])
+    hi_candidates = ts[(ts > lo) & (ts <= t_bad) & spec.violated(values)]
+    hi = float(hi_candidates[0]) if hi_candidates.size else t_bad
+    if margin_at(lo) == 0.0:
+        return lo
+    try:
+        return float(optimize.brentq(margin_at, lo, hi, xtol=1e-14, rtol=4 * np.finfo(float).eps,
+                                     maxiter=200))
+    except ValueError:  # no sign change (a touch at zero for a strict spec)
+        return hi
+
+
+class _Found(Exception):
+    def __init__(self, u: np.ndarray, evaluated: Any) -> None:
+        self.u = u
+        self.evaluated = evaluated
+
+
+def falsify(problem: Problem, specs: Sequence[Spec],
+            options: FalsifyOptions | None = None) -> Falsification:
+    """Search the uncertain initial set, parameters and inputs for a violation.
+
+    Parameters
+    ----------
+    problem : Problem
+        From :func:`resolve_problem`.
+    specs : sequence of Spec
+    options : FalsifyOptions, optional
+
+    Returns
+    -------
+    Falsification
+        With the first counterexample found (the worst violation of the run
+        that found it), or ``None`` and the lowest margins seen.
+
+    Examples
+    --------
+    >>> from hybridlab.reachability.spec import parse_spec
+    >>> pb = resolve_problem("models/bouncing_ball.toml", initial={"h": (5.0, 10.0)}, t_end=2.0)
+    >>> found = falsify(pb, [parse_spec("h <= 9", pb.compiled)])
+    >>> cx = found.counterexample
+    >>> cx.t, cx.initial["h"], cx.margin
+    (0.0, 10.0, -1.0)
+    >>> bool(np.array_equal(cx.replay().y, cx.replay().y))
+    True
+    """
+    options = options or FalsifyOptions()
+    started = time.perf_counter()
+    margins_fn = _Margins(problem.compiled, specs)
+    rng = np.random.default_rng(options.seed)
+    d = problem.dims
+    lowest = {s.text: math.inf for s in specs}
+    best_u: list[list[tuple[float, np.ndarray]]] = [[] for _ in specs]
+    counters = {"runs": 0, "incomplete": 0}
+
+    def evaluate(u: np.ndarray) -> tuple[list[SpecMargin], SimulationResult, np.ndarray] | None:
+        point = problem.point(u)
+        if point is None:
+            return None
+        x0, p = point
+        result = problem.run(x0, p)
+        counters["runs"] += 1
+        if not result.status.ok:
+            counters["incomplete"] += 1
+        out = [trajectory_margin(result, s, fns, p)
+               for s, fns in zip(specs, margins_fn.fns, strict=True)]
+        for i, m in enumerate(out):
+            lowest[m.spec] = min(lowest[m.spec], m.margin)
+            if np.isfinite(m.margin):
+                best_u[i].append((m.margin, u))
+        return out, result, p
+
+    def finish(u: np.ndarray, evaluated) -> Falsification:
+        out, _, p = evaluated
+        i = next(k for k, m in enumerate(out) if m.violation_t is not None)
+        m = out[i]
+        names = problem.compiled.state_names
+        pnames = problem.compiled.parameter_names
+        x0, _ = problem.point(u)  # type: ignore[misc]
+        cx = Counterexample(
+            spec=m.spec, t=float(m.violation_t), mode=str(m.violation_mode),
+            state=dict(zip(names, map(float, m.violation_state), strict=True)),
+            margin=float(m.margin), t_worst=float(m.t),
+            initial=dict(zip(names, map(float, x0), strict=True)),
+            parameters=dict(zip(pnames, map(float, p), strict=True)),
+            inputs={k: float(p[pnames.index(k)]) for k in problem.input_box},
+            initial_mode=problem.mode, t_start=problem.t_start, t_end=problem.t_end,
+            options=problem.options, compiled=problem.compiled)
+        return Falsification(cx, dict(lowest), counters["runs"], counters["incomplete"],
+                             time.perf_counter() - started)
+
+    for u in _sample_plan(d, options, rng):
+        evaluated = evaluate(u)
+        if evaluated is not None and any(m.violation_t is not None for m in evaluated[0]):
+            return finish(u, evaluated)
+    if d and options.local_evals:
+        for i in range(len(specs)):
+            starts = sorted(best_u[i], key=lambda item: item[0])[:options.local_starts]
+            for _, u0 in starts:
+                found = _local_search(i, u0, d, options.local_evals, evaluate)
+                if found is not None:
+                    return finish(*found)
+    return Falsification(None, dict(lowest), counters["runs"], counters["incomplete"],
+                         time.perf_counter() - started)
+
+
+def _sample_plan(d: int, options: FalsifyOptions, rng: np.random.Generator) -> list[np.ndarray]:
+    plan = [np.full(d, 0.5)]
+    if d == 0:
+        return plan
+    if d <= options.max_corner_dims:
+        grid = np.array(np.meshgrid(*[[0.0, 1.0]] * d, indexing="ij")).reshape(d, -1).T
+        plan += list(grid)
+    else:
+        plan += list(rng.integers(0, 2, size=(options.corners, d)).astype(float))
+    if options.samples:
+        plan += list(qmc.LatinHypercube(d=d, seed=rng).random(options.samples))
+    return plan
+
+
+def _local_search(i: int, u0: np.ndarray, d: int, budget: int, evaluate) -> tuple | None:
+    """Powell on spec ``i``'s minimum margin, bounded to the unit cube; stops at a violation."""
+
+    def objective(u: np.ndarray) -> float:
+        u = np.clip(u, 0.0, 1.0)
+        evaluated = evaluate(u)
+        if evaluated is None:
+            return math.inf
+        m = evaluated[0][i]
+        if any(mm.violation_t is not None for mm in evaluated[0]):
+            raise _Found(u.copy(), evaluated)
+        return m.margin if np.isfinite(m.margin) else math.inf
+
+    try:
+        optimize.minimize(objective, u0, method="Powell", bounds=[(0.0, 1.0)] * d,
+                          options={"maxfev": budget, "xtol": 1e-6, "ftol": 1e-9})
+    except _Found as found:
+        return found.u, found.evaluated
+    return None
