@@ -5,6 +5,7 @@ model -> symbolic -> simulate -> graph -> cli, and lower layers never import
 higher ones.
 """
 
+from hybridlab.ensemble import SweepResult, simulate_many, sweep
 from hybridlab.errors import (
     CompilationError,
     ExpressionError,
@@ -60,6 +61,7 @@ __all__ = [
     "SimulationResult",
     "State",
     "Status",
+    "SweepResult",
     "Transition",
     "ZenoError",
     "compile_model",
@@ -70,5 +72,7 @@ __all__ = [
     "model_from_dict",
     "model_json_schema",
     "simulate",
+    "simulate_many",
+    "sweep",
     "to_dot",
 ]

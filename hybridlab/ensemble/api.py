@@ -1,0 +1,299 @@
+"""The public entry points :func:`sweep` and :func:`simulate_many`."""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import dataclasses
+import inspect
+import math
+import pickle
+import time
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from hybridlab.ensemble.errors import SweepError
+from hybridlab.ensemble.executors import place
+from hybridlab.ensemble.observables import parse_counts, parse_observables
+from hybridlab.ensemble.progress import ProgressBar, progress_wanted
+from hybridlab.ensemble.result import SweepResult
+from hybridlab.ensemble.spec import RUN_KEYS, expand, normalise_run
+from hybridlab.ensemble.worker import ERROR, Chunk, compiled_for, model_key, model_text, run_chunk
+from hybridlab.model.loader import load_model
+from hybridlab.model.schema import Model
+from hybridlab.simulation.api import simulate
+from hybridlab.simulation.observe import Observer
+from hybridlab.simulation.options import SimulationOptions
+from hybridlab.symbolic.compile import CompiledModel
+
+__all__ = ["simulate_many", "sweep"]
+
+_KEEP = ("observables", "results")
+_FIXED_COLUMNS = ("run", "status", "t_final", "jumps", "error")
+
+
+def _simulate_option_names() -> set[str]:
+    per_run = {"model", "t_end", "scenario", "params", "initial"}
+    names = {n for n, p in inspect.signature(simulate).parameters.items()
+             if p.kind is not inspect.Parameter.VAR_KEYWORD and n not in per_run}
+    return names | set(SimulationOptions.__dataclass_fields__)
+
+
+def _check_options(options: Mapping[str, Any]) -> None:
+    unknown = sorted(set(options) - _simulate_option_names())
+    if unknown:
+        raise SweepError(f"unknown simulate option {unknown[0]!r}")
+    fields = {k: v for k, v in options.items() if k in SimulationOptions.__dataclass_fields__}
+    try:
+        SimulationOptions(**fields)  # bad values fail here once, not in every run
+    except (TypeError, ValueError) as exc:
+        raise SweepError(f"simulate options: {exc}") from None
+
+
+def _model_of(model: Model | CompiledModel | str | Path) -> tuple[Model, CompiledModel | None]:
+    if isinstance(model, CompiledModel):
+        return model.model, model
+    if isinstance(model, str | Path):
+        return load_model(model), None
+    if isinstance(model, Model):
+        return model, None
+    raise SweepError(f"model: expected a Model, a CompiledModel or a path "
+                     f"(got {type(model).__name__})")
+
+
+def _check_horizon(model: Model, runs: Sequence[Mapping[str, Any]]) -> None:
+    for k, run in enumerate(runs):
+        scenario = run.get("scenario")
+        if scenario is not None and scenario not in model.scenarios:
+            raise SweepError(f"scenario: unknown scenario {scenario!r}; the model has: "
+                             f"{', '.join(model.scenarios) or 'none'}")
+        if run.get("t_end") is None and scenario is None and "default" not in model.scenarios:
+            raise SweepError(f"t_end is required (run {k} has none and model {model.name!r} "
+                             f"has no default scenario)")
+
+
+def _default_chunksize(n_runs: int, workers: int) -> int:
+    return max(1, min(256, math.ceil(n_runs / (8 * max(workers, 1)))))
+
+
+def _execute(model_arg: Model | CompiledModel | str | Path, runs: list[dict[str, Any]],
+             inputs: Sequence[str], input_rows: Sequence[tuple[Any, ...]], *, observe: Any,
+             events: Any, executor: Any, chunksize: int | None, progress: bool | None,
+             keep: str, options: Mapping[str, Any]) -> SweepResult:
+    started = time.perf_counter()
+    model, compiled = _model_of(model_arg)
+    if keep not in _KEEP:
+        raise SweepError(f"keep must be one of {', '.join(_KEEP)} (got {keep!r})")
+    if chunksize is not None and (isinstance(chunksize, bool) or not isinstance(chunksize, int)
+                                  or chunksize < 1):
+        raise SweepError(f"chunksize must be a positive integer (got {chunksize!r})")
+    _check_options(options)
+    _check_horizon(model, runs)
+    text = model_text(model)
+    key = model_key(text)
+    compiled = compiled_for(text, key, compiled)
+    observables = parse_observables(observe)
+    counts = parse_counts(events, [t.name for t in model.transitions])
+    texts = [o.expression for o in observables if o.function is None]
+    if texts:
+        Observer(compiled, texts)  # a bad expression fails here, once, naming its token
+    columns = ("run", *inputs, "status", "t_final", "jumps", *(c.column for c in counts),
+               *(o.name for o in observables), "error")
+    duplicate = next((c for c in columns if columns.count(c) > 1), None)
+    if duplicate is not None:
+        raise SweepError(f"column {duplicate!r} appears twice: rename the observable or count")
+
+    placement = place(executor, len(runs))
+    if not placement.in_process:
+        for obs in observables:
+            if obs.function is not None:
+                try:
+                    pickle.dumps(obs.function)
+                except Exception:
+                    _shutdown(placement)
+                    raise SweepError(
+                        f"observe {obs.name!r}: the function cannot be pickled for worker "
+                        f"processes (a lambda or closure): define it at module level or use "
+                        f"executor='serial' or 'threads'") from None
+    size = chunksize or _default_chunksize(len(runs), placement.workers)
+    chunks = [Chunk(text, key, tuple((i, runs[i]) for i in range(lo, min(lo + size, len(runs)))),
+                    dict(options), observables, counts, keep == "results")
+              for lo in range(0, len(runs), size)]
+    worker_rows: list[tuple[Any, ...] | None] = [None] * len(runs)
+    results: list[Any] = [None] * len(runs)
+    bar = ProgressBar(len(runs), enabled=progress_wanted(progress))
+
+    def collect(chunk: Chunk, outcome: list[tuple[int, tuple[Any, ...], Any]] | None,
+                problem: str = "") -> None:
+        if outcome is None:  # the whole chunk was lost (a worker died): record, go on
+            nothing = (None,) * (len(counts) + len(observables))
+            outcome = [(i, (ERROR, math.nan, None, *nothing, problem), None)
+                       for i, _ in chunk.runs]
+        for index, row, result in outcome:
+            worker_rows[index] = row
+            if result is not None:
+                results[index] = dataclasses.replace(result, compiled=compiled)
+        bar.update(len(chunk.runs))
+
+    try:
+        if placement.executor is None:
+            for chunk in chunks:
+                collect(chunk, run_chunk(chunk))
+        else:
+            futures = {placement.executor.submit(run_chunk, chunk): chunk for chunk in chunks}
+            for future in cf.as_completed(futures):
+                try:
+                    outcome = future.result()
+                except Exception as exc:
+                    text = " ".join(str(exc).split())
+                    collect(futures[future], None, f"{type(exc).__name__}: {text}")
+                else:
+                    collect(futures[future], outcome)
+    finally:
+        bar.close()
+        _shutdown(placement)
+    rows = tuple((i, *input_rows[i], *row) for i, row in enumerate(worker_rows))
+    return SweepResult(columns=columns, rows=rows, inputs=tuple(inputs),
+                       results=tuple(results) if keep == "results" else None,
+                       elapsed=time.perf_counter() - started, executor=placement.label)
+
+
+def _shutdown(placement: Any) -> None:
+    if placement.owned and placement.executor is not None:
+        placement.executor.shutdown(wait=True, cancel_futures=True)
+
+
+def sweep(model: Model | CompiledModel | str | Path, *,
+          grid: Mapping[str, Sequence[float]] | None = None, samples: Any = None,
+          params: Mapping[str, float] | None = None, initial: Mapping[str, float] | None = None,
+          scenario: str | None = None, t_end: float | None = None, observe: Any = None,
+          events: Any = None, executor: Any = None, chunksize: int | None = None,
+          progress: bool | None = None, keep: str = "observables",
+          **simulate_options: Any) -> SweepResult:
+    """Simulate a model over a grid or a sample of parameters and initial states.
+
+    Parameters
+    ----------
+    model : Model, CompiledModel, str or pathlib.Path
+    grid : mapping of str to sequence of float, optional
+        A full factorial: ``{"e": [0.5, 0.8], "h": [1, 2, 3]}`` makes 6 runs. A
+        name that is a state sets the initial state, a parameter the parameter.
+    samples : optional
+        Explicit points: a sequence of ``{name: value}`` mappings, a numpy
+        structured array, or a ``(names, array)`` pair with one row per run.
+        With ``grid`` too, every sample is combined with every grid point.
+    params, initial : mapping of str to float, optional
+        Fixed overrides under every run (a swept name may not appear here).
+    scenario : str, optional
+        Scenario supplying defaults (as in :func:`hybridlab.simulate`).
+    t_end : float, optional
+        Final time (default: the scenario's).
+    observe : mapping or sequence, optional
+        What to record per run: ``{"h_end": "h", "top": ("max", "h"),
+        "h5": ("at", "h", 5.0), "custom": function}``; a plain sequence of
+        expressions records their final values. See
+        :class:`hybridlab.ensemble.Observable`.
+    events : sequence of str or Count, optional
+        Transitions whose jumps are counted (column ``count:NAME``); a
+        :class:`hybridlab.ensemble.Count` counts several together and/or only
+        after another transition first fired.
+    executor : optional
+        ``None`` (serial for a few runs, else a process pool over every core),
+        ``"serial"``, ``"threads"``, ``"processes"``, a worker count, any
+        :class:`concurrent.futures.Executor`, or a ``distributed.Client``.
+    chunksize : int, optional
+        Runs per task sent to a worker (default: about eight tasks per worker,
+        at most 256 runs each).
+    progress : bool, optional
+        A progress bar on stderr; default: when stderr is a terminal and the
+        ``CI`` environment variable is unset.
+    keep : {"observables", "results"}
+        ``"results"`` also keeps every :class:`hybridlab.SimulationResult`
+        (:attr:`SweepResult.results`); the default keeps only the table.
+    **simulate_options
+        Passed to every :func:`hybridlab.simulate` call (``method``, ``rtol``,
+        ``atol``, ``max_step``, ``mode``, any :class:`SimulationOptions`
+        field, a ``backend`` where supported).
+
+    Returns
+    -------
+    SweepResult
+        One row per run, in grid order (the last grid name varies fastest).
+        A run that raises is recorded with status ``ERROR`` and its message;
+        it never stops the sweep.
+
+    Raises
+    ------
+    SweepError
+        Before any run: an unknown name, scenario, transition, option or
+        observable, or a function observable that cannot be pickled.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> table = hybridlab.sweep("models/bouncing_ball.toml", grid={"h": [5.0, 10.0]},
+    ...                         t_end=1.0, observe={"top": ("max", "h"), "v_end": "v"})
+    >>> table.columns
+    ('run', 'h', 'status', 't_final', 'jumps', 'top', 'v_end', 'error')
+    >>> [round(float(v), 6) for v in table["v_end"]]    # -g t before the first bounce
+    [-9.81, -9.81]
+    >>> table["top"].tolist()
+    [5.0, 10.0]
+    """
+    resolved, _ = _model_of(model)
+    runs, swept = expand(resolved, grid=grid, samples=samples, params=params, initial=initial,
+                         scenario=scenario, t_end=t_end)
+    input_rows = [tuple({**run.get("params", {}), **run.get("initial", {})}[n] for n in swept)
+                  for run in runs]
+    return _execute(resolved if not isinstance(model, CompiledModel) else model, runs, swept,
+                    input_rows, observe=observe, events=events, executor=executor,
+                    chunksize=chunksize, progress=progress, keep=keep, options=simulate_options)
+
+
+def simulate_many(model: Model | CompiledModel | str | Path,
+                  runs: Sequence[Mapping[str, Any]], *, observe: Any = None, events: Any = None,
+                  executor: Any = None, chunksize: int | None = None,
+                  progress: bool | None = None, keep: str = "observables",
+                  **simulate_options: Any) -> SweepResult:
+    """Simulate a list of runs, each given as :func:`hybridlab.simulate` keyword arguments.
+
+    Parameters
+    ----------
+    model : Model, CompiledModel, str or pathlib.Path
+    runs : sequence of mapping
+        Each may set ``params``, ``initial`` (mappings), ``t_end``,
+        ``scenario`` and ``mode``.
+    observe, events, executor, chunksize, progress, keep, **simulate_options
+        As for :func:`sweep`.
+
+    Returns
+    -------
+    SweepResult
+        Input columns: every parameter and state set by some run (missing
+        where a run does not set it), then ``t_end``, ``scenario``, ``mode``
+        when some run sets them.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> table = hybridlab.simulate_many("models/thermostat.toml", [
+    ...     {"initial": {"T": 20.0}}, {"initial": {"T": 21.0}, "t_end": 5.0}],
+    ...     events=["turn_off"], executor="serial")
+    >>> table.columns[:4], table["t_final"].tolist()
+    (('run', 'T', 't_end', 'status'), [60.0, 5.0])
+    """
+    resolved, _ = _model_of(model)
+    if isinstance(runs, Mapping | str | bytes):
+        raise SweepError("runs: expected a sequence of mappings")
+    normal = [normalise_run(resolved, run, k) for k, run in enumerate(runs)]
+    used_p = {n for run in normal for n in run.get("params", {})}
+    used_x = {n for run in normal for n in run.get("initial", {})}
+    inputs = [n for n in resolved.parameters if n in used_p]
+    inputs += [n for n in resolved.states if n in used_x]
+    extra = [k for k in RUN_KEYS[2:] if any(k in run for run in normal)]
+    input_rows = [tuple({**run.get("params", {}), **run.get("initial", {})}.get(n)
+                        for n in inputs) + tuple(run.get(k) for k in extra) for run in normal]
+    return _execute(model if isinstance(model, CompiledModel) else resolved, normal,
+                    [*inputs, *extra], input_rows, observe=observe, events=events,
+                    executor=executor, chunksize=chunksize, progress=progress, keep=keep,
+                    options=simulate_options)
