@@ -14,11 +14,13 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from hybridlab.ensemble.cli import add_sweep_parser
 from hybridlab.errors import HybridlabError, ModelError, SimulationError
 from hybridlab.graph import to_dot
 from hybridlab.identify.cli import add_identify_parser
 from hybridlab.model.loader import load_model, model_json_schema
 from hybridlab.model.schema import Model
+from hybridlab.reachability.cli import add_reach_parser
 from hybridlab.simulation.api import simulate
 from hybridlab.simulation.options import METHODS
 from hybridlab.symbolic.compile import compile_model
@@ -175,6 +177,8 @@ def _parser() -> _Parser:
     graph.set_defaults(run=_cmd_graph)
 
     add_identify_parser(sub)
+    add_sweep_parser(sub)
+    add_reach_parser(sub)
 
     schema = sub.add_parser("schema", help="print the JSON schema of model files")
     schema.add_argument("--out")

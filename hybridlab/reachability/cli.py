@@ -1,0 +1,169 @@
+"""The ``reach`` subcommand, ready to be attached to the main command line.
+
+``add_reach_parser(subparsers)`` adds::
+
+    reach MODEL --init NAME=LO:HI ... [--param NAME=LO:HI] [--input NAME=LO:HI]
+          --t-end T --safe "SPEC" ... [--avoid NAME=LO:HI[,NAME=LO:HI...]]
+          [--max-jumps N] [--scenario S] [--mode M] [--samples N] [--seed N]
+          [--no-prove] [--out FILE.json]
+
+and sets ``run=<function(args) -> int>`` returning 0 (SAFE), 1 (UNSAFE) or
+3 (UNKNOWN). User errors are raised as ``ValueError`` (or hybridlab errors) for
+the caller to print as one line with exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+from hybridlab.model.loader import load_model
+from hybridlab.reachability.falsify import FalsifyOptions
+from hybridlab.reachability.spec import Avoid
+from hybridlab.reachability.verdict import Verdict, VerdictStatus, check
+
+__all__ = ["add_reach_parser", "parse_ranges", "EXIT_CODES"]
+
+#: Exit code of each verdict.
+EXIT_CODES = {VerdictStatus.SAFE: 0, VerdictStatus.UNSAFE: 1, VerdictStatus.UNKNOWN: 3}
+
+
+def _number(text: str, option: str, name: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise ValueError(f"{option} {name}: {text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise ValueError(f"{option} {name}: {text!r} is not a finite number")
+    return value
+
+
+def parse_ranges(items: Sequence[str] | None, option: str,
+                 allow_point: bool = True) -> dict[str, float | tuple[float, float]]:
+    """Parse ``NAME=LO:HI`` (an interval) or ``NAME=VALUE`` (a point) items.
+
+    Examples
+    --------
+    >>> parse_ranges(["h=5:10", "v=-1"], "--init")
+    {'h': (5.0, 10.0), 'v': -1.0}
+    >>> parse_ranges(["h=10:5"], "--init")
+    Traceback (most recent call last):
+    ...
+    ValueError: --init h: the interval 10:5 needs LO <= HI
+    """
+    out: dict[str, float | tuple[float, float]] = {}
+    for item in items or ():
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or not name or not value.strip():
+            form = "NAME=LO:HI or NAME=VALUE" if allow_point else "NAME=LO:HI"
+            raise ValueError(f"{option} expects {form} (got {item!r})")
+        if name in out:
+            raise ValueError(f"{option} {name}: given twice")
+        lo_text, colon, hi_text = value.partition(":")
+        if colon:
+            lo, hi = _number(lo_text, option, name), _number(hi_text, option, name)
+            if lo > hi:
+                raise ValueError(f"{option} {name}: the interval {value.strip()} needs LO <= HI")
+            out[name] = (lo, hi)
+        elif allow_point:
+            out[name] = _number(value, option, name)
+        else:
+            raise ValueError(f"{option} {name}: expects an interval LO:HI (got {value!r})")
+    return out
+
+
+def _avoid(items: Sequence[str] | None) -> list[Avoid]:
+    regions = []
+    for item in items or ():
+        parts = parse_ranges([p for p in item.split(",") if p.strip()], "--avoid",
+                             allow_point=False)
+        if not parts:
+            raise ValueError(f"--avoid expects NAME=LO:HI[,NAME=LO:HI...] (got {item!r})")
+        regions.append(Avoid(box=parts, name=f"avoid {item.strip()}"))
+    return regions
+
+
+def _print(verdict: Verdict) -> None:
+    print(f"verdict: {verdict.status.name}: {verdict.reason}")
+    if verdict.margin is not None:
+        print(f"margin: {verdict.margin:.6g}")
+    if verdict.reach is not None:
+        r = verdict.reach
+        print(f"reachable modes: {', '.join(sorted(r.reachable_modes))}")
+        print("bounds: " + ", ".join(f"{k} in [{lo:.6g}, {hi:.6g}]"
+                                     for k, (lo, hi) in r.bounds.items()))
+    cx = verdict.counterexample
+    if cx is not None:
+        print("counterexample: from " + ", ".join(f"{k}={v:.10g}" for k, v in cx.initial.items()))
+    print(f"time: {verdict.time_s:.3g} s")
+
+
+def _run(args: argparse.Namespace) -> int:
+    if not math.isfinite(args.t_end):
+        raise ValueError(f"--t-end: {args.t_end!r} is not a finite number")
+    if not args.safe and not args.avoid:
+        raise ValueError("give at least one --safe SPEC or --avoid REGION")
+    initial = parse_ranges(args.init, "--init")
+    params = parse_ranges(args.param, "--param")
+    inputs = parse_ranges(args.input, "--input", allow_point=False)
+    out = Path(args.out) if args.out else None
+    if out is not None and out.suffix.lower() != ".json":
+        raise ValueError(f"--out must end in .json (got {args.out!r})")
+    if args.max_jumps is not None and args.max_jumps < 0:
+        raise ValueError(f"--max-jumps must be >= 0 (got {args.max_jumps})")
+    model = load_model(args.model)
+    overrides = {} if args.max_jumps is None else {"max_jumps": args.max_jumps}
+    falsify_options = FalsifyOptions(samples=args.samples, seed=args.seed)
+    verdict = check(model, initial=initial, t_end=args.t_end,
+                    safe=[*args.safe, *_avoid(args.avoid)], mode=args.mode,
+                    scenario=args.scenario, params=params, inputs=inputs,
+                    falsify_options=falsify_options, prove=not args.no_prove, **overrides)
+    _print(verdict)
+    if out is not None:
+        out.write_text(json.dumps(verdict.as_dict(), indent=1) + "\n")
+        print(f"wrote {args.out}")
+    return EXIT_CODES[verdict.status]
+
+
+def _non_negative(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{text!r} is negative")
+    return value
+
+
+def add_reach_parser(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Add the ``reach`` subcommand to ``sub``; returns its parser."""
+    p = sub.add_parser("reach", help="check safety specs from an initial set: SAFE (proved), "
+                                     "UNSAFE (counterexample) or UNKNOWN",
+                       description="Exit codes: 0 SAFE, 1 UNSAFE, 3 UNKNOWN, 2 user error.")
+    p.add_argument("model")
+    p.add_argument("--init", action="append", metavar="NAME=LO:HI",
+                   help="initial interval (or NAME=VALUE, a point) of a state; repeatable")
+    p.add_argument("--param", action="append", metavar="NAME=LO:HI",
+                   help="uncertain constant parameter (or NAME=VALUE); repeatable")
+    p.add_argument("--input", action="append", metavar="NAME=LO:HI",
+                   help="parameter varying in time within LO:HI; repeatable")
+    p.add_argument("--t-end", type=float, dest="t_end", required=True)
+    p.add_argument("--safe", action="append", default=[], metavar="SPEC",
+                   help="'[MODE,...:] INEQUALITY [and ...]'; repeatable")
+    p.add_argument("--avoid", action="append", metavar="NAME=LO:HI[,...]",
+                   help="a box of states to avoid; repeatable")
+    p.add_argument("--max-jumps", type=int, dest="max_jumps")
+    p.add_argument("--scenario")
+    p.add_argument("--mode", help="initial mode")
+    p.add_argument("--samples", type=_non_negative, default=FalsifyOptions.samples,
+                   help="Latin-hypercube samples for falsification (default %(default)s)")
+    p.add_argument("--seed", type=_non_negative, default=0, help="falsification seed")
+    p.add_argument("--no-prove", action="store_true", dest="no_prove",
+                   help="falsification only (no reachability): UNSAFE or UNKNOWN")
+    p.add_argument("--out", help="write the verdict as JSON")
+    p.set_defaults(run=_run)
+    return p

@@ -1,0 +1,297 @@
+"""Verdicts: SAFE (proved by reachability), UNSAFE (a counterexample), UNKNOWN (and why).
+
+:func:`check` runs the cheap part first: falsification by simulation from the
+initial set (:mod:`hybridlab.reachability.falsify`). A violation found there is
+a concrete trajectory, so the verdict is UNSAFE. Otherwise the flowpipes of
+:func:`hybridlab.reach` are computed and every spec is bounded over every reach
+set of the modes it covers (``ReachSet.bound``: exact for rows linear in the
+states, interval arithmetic otherwise). All lower bounds ``>= 0`` (``> 0`` for
+a region to avoid) on a complete reach result (every branch followed to
+``t_end``) is a proof: SAFE. Anything else is UNKNOWN, with the reason and the
+tightest bound, its mode and its time interval.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+import time
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from hybridlab.errors import HybridlabError
+from hybridlab.model.schema import Model
+from hybridlab.reachability.falsify import (
+    Counterexample,
+    Falsification,
+    FalsifyOptions,
+    falsify,
+    resolve_problem,
+)
+from hybridlab.reachability.spec import Avoid, Spec, as_specs
+from hybridlab.simulation.options import SimulationOptions
+from hybridlab.symbolic.compile import CompiledModel
+
+__all__ = ["VerdictStatus", "SpecBound", "Verdict", "check", "bound_specs"]
+
+
+class VerdictStatus(enum.Enum):
+    """The outcome of a safety check; each value says what it means."""
+
+    SAFE = ("proved: every state reachable from the initial set satisfies every spec up to "
+            "t_end")
+    UNSAFE = ("a simulated trajectory from the initial set violates a spec: see the "
+              "counterexample (its replay() runs it again)")
+    UNKNOWN = "neither proved nor refuted: the reason says what was missing"
+
+
+@dataclass(frozen=True)
+class SpecBound:
+    """The lower bound of one spec's margin over the reach sets, where it is tightest.
+
+    Attributes
+    ----------
+    spec : str
+    lower : float
+        Lower bound of the margin over every reach set the spec covers
+        (``inf`` if none).
+    mode : str or None
+        Mode of the set where the bound is lowest.
+    t : (float, float) or None
+        Time interval of that set.
+    jumps : int or None
+        Jumps before that set.
+    sets : int
+        Reach sets the spec was bounded over.
+    """
+
+    spec: str
+    lower: float
+    mode: str | None = None
+    t: tuple[float, float] | None = None
+    jumps: int | None = None
+    sets: int = 0
+
+    def where(self) -> str:
+        """``in mode 'm' for t in [a, b]`` (or an empty string)."""
+        if self.mode is None or self.t is None:
+            return ""
+        return f"in mode {self.mode!r} for t in [{self.t[0]:.6g}, {self.t[1]:.6g}]"
+
+    def as_dict(self) -> dict[str, Any]:
+        """A JSON-ready mapping."""
+        return {"spec": self.spec, "lower": _json_float(self.lower), "mode": self.mode,
+                "t": list(self.t) if self.t else None, "jumps": self.jumps, "sets": self.sets}
+
+
+def _json_float(x: float | None) -> float | None:
+    return None if x is None or not math.isfinite(x) else float(x)
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The answer of a safety check.
+
+    Attributes
+    ----------
+    status : VerdictStatus
+    specs : tuple of str
+        The specs checked.
+    reason : str
+        Why this verdict, and for UNKNOWN what to change.
+    margin : float or None
+        SAFE: the smallest proven margin (``>= 0``). UNSAFE: the most negative
+        margin of the counterexample. UNKNOWN: the lowest lower bound from the
+        flowpipes (``where`` says where), or ``None`` if none was computed.
+    where : SpecBound or None
+        The spec, mode and time of ``margin`` (from the flowpipes).
+    spec_bounds : tuple of SpecBound
+        The flowpipe bound of every spec.
+    counterexample : Counterexample or None
+    reach : ReachResult or None
+    falsification : Falsification or None
+    time_s : float
+    """
+
+    status: VerdictStatus
+    specs: tuple[str, ...]
+    reason: str
+    margin: float | None = None
+    where: SpecBound | None = None
+    spec_bounds: tuple[SpecBound, ...] = ()
+    counterexample: Counterexample | None = None
+    reach: Any = field(default=None, repr=False)
+    falsification: Falsification | None = field(default=None, repr=False)
+    time_s: float = 0.0
+
+    @property
+    def safe(self) -> bool:
+        return self.status is VerdictStatus.SAFE
+
+    def as_dict(self) -> dict[str, Any]:
+        """A JSON-ready mapping (the CLI's ``--out`` layout)."""
+        reach = self.reach
+        data: dict[str, Any] = {
+            "verdict": self.status.name,
+            "reason": self.reason,
+            "margin": _json_float(self.margin),
+            "where": self.where.as_dict() if self.where else None,
+            "specs": list(self.specs),
+            "spec_bounds": [b.as_dict() for b in self.spec_bounds],
+            "bounds": ({k: [float(lo), float(hi)] for k, (lo, hi) in reach.bounds.items()}
+                       if reach is not None else None),
+            "reachable_modes": sorted(reach.reachable_modes) if reach is not None else None,
+            "reach_complete": bool(reach.complete) if reach is not None else None,
+            "counterexample": (self.counterexample.as_dict()
+                               if self.counterexample is not None else None),
+            "time_s": self.time_s,
+        }
+        if self.falsification is not None:
+            f = self.falsification
+            data["falsification"] = {"runs": f.runs, "incomplete_runs": f.incomplete_runs,
+                                     "margins": {k: _json_float(v) for k, v in f.margins.items()},
+                                     "time_s": f.time_s}
+        return data
+
+
+def bound_specs(specs: Iterable[Spec], reach_result: Any) -> tuple[SpecBound, ...]:
+    """Lower-bound every spec's margin over the reach sets of the modes it covers.
+
+    Each row is bounded with ``ReachSet.bound``; a conjunction's margin bound is
+    the least row bound, a region's the best single separating row.
+    """
+    out = []
+    for spec in specs:
+        best = SpecBound(spec.text, math.inf)
+        count = 0
+        for rs in reach_result.sets:
+            if not spec.covers(rs.mode):
+                continue
+            count += 1
+            lower = spec.combine_lower([float(rs.bound(row)[0]) for row in spec.rows[rs.mode]])
+            if lower < best.lower or best.mode is None and lower == best.lower:
+                best = SpecBound(spec.text, lower, rs.mode,
+                                 (float(rs.t[0]), float(rs.t[1])), int(rs.jumps))
+        out.append(SpecBound(best.spec, best.lower, best.mode, best.t, best.jumps, count))
+    return tuple(out)
+
+
+def _proved(spec: Spec, lower: float) -> bool:
+    return lower > 0 if spec.strict else lower >= 0
+
+
+def check(
+    model: Model | CompiledModel | str | Path,
+    *,
+    initial: Mapping[str, float | tuple[float, float]] | Any,
+    t_end: float,
+    safe: str | Avoid | Spec | Iterable[str | Avoid | Spec],
+    mode: str | None = None,
+    scenario: str | None = None,
+    params: Mapping[str, float | tuple[float, float]] | None = None,
+    inputs: Mapping[str, tuple[float, float]] | None = None,
+    options: Any = None,
+    falsify_options: FalsifyOptions | None = None,
+    simulation: SimulationOptions | None = None,
+    prove: bool = True,
+    **reach_overrides: Any,
+) -> Verdict:
+    """Check safety specs on every trajectory from an initial set: falsify, then prove.
+
+    Parameters
+    ----------
+    model : Model, CompiledModel or path
+    initial : mapping or set
+        States given as a number (a point) or a ``(lo, hi)`` interval (others
+        take their scenario or model value), or a ``Box``/``Zonotope``/``Polytope``
+        over all states.
+    t_end : float
+    safe : spec or sequence of specs
+        Texts such as ``"x >= -100"`` or ``"attempt, brake: x >= -100"``,
+        :class:`~hybridlab.reachability.spec.Avoid` regions, or bound specs.
+    mode, scenario : str, optional
+        Initial mode and the scenario supplying defaults.
+    params : mapping, optional
+        Parameter values; a ``(lo, hi)`` pair is an uncertain constant.
+    inputs : mapping, optional
+        Parameters that vary in time within ``(lo, hi)``.
+    options : ReachOptions, optional
+        Reachability settings; ``**reach_overrides`` (e.g. ``max_jumps=5``)
+        override its fields.
+    falsify_options : FalsifyOptions, optional
+        The falsification budget; ``FalsifyOptions(samples=0, local_evals=0)``
+        keeps it to the centre and corners.
+    simulation : SimulationOptions, optional
+        Integrator settings for falsification (default: the scenario's).
+    prove : bool
+        ``False`` skips reachability (the verdict is then UNSAFE or UNKNOWN).
+
+    Returns
+    -------
+    Verdict
+    """
+    started = time.perf_counter()
+    problem = resolve_problem(model, initial=initial, t_end=t_end, mode=mode, scenario=scenario,
+                              params=params, inputs=inputs, simulation=simulation)
+    compiled = problem.compiled
+    specs = as_specs(safe, compiled)
+    texts = tuple(s.text for s in specs)
+
+    found = falsify(problem, specs, falsify_options)
+    cx = found.counterexample
+    if cx is not None:
+        state = ", ".join(f"{k}={v:.6g}" for k, v in cx.state.items())
+        reason = (f"spec {cx.spec!r} is violated at t={cx.t:.10g} in mode {cx.mode!r} "
+                  f"({state}); the lowest margin along that run is {cx.margin:.6g} at "
+                  f"t={cx.t_worst:.6g} (found in {found.runs} simulation(s))")
+        return Verdict(VerdictStatus.UNSAFE, texts, reason, margin=cx.margin, counterexample=cx,
+                       falsification=found, time_s=time.perf_counter() - started)
+    sim_margin = min(found.margins.values())
+    evidence = (f"falsification found no violation in {found.runs} simulation(s) (lowest "
+                f"simulated margin {sim_margin:.6g})")
+    if not prove:
+        return Verdict(VerdictStatus.UNKNOWN, texts,
+                       f"reachability was not attempted (prove=False); {evidence}",
+                       falsification=found, time_s=time.perf_counter() - started)
+
+    from hybridlab.reachability import reach  # the flowpipes: a sibling module
+
+    try:
+        result = reach(compiled, initial=initial, t_end=t_end, mode=mode, scenario=scenario,
+                       params=params, inputs=inputs, options=options, **reach_overrides)
+    except (HybridlabError, ArithmeticError, NotImplementedError, RuntimeError) as exc:
+        text = " ".join(str(exc).split())
+        return Verdict(VerdictStatus.UNKNOWN, texts,
+                       f"reachability failed ({type(exc).__name__}: {text}); {evidence}",
+                       falsification=found, time_s=time.perf_counter() - started)
+    bounds = bound_specs(specs, result)
+    tightest = min(bounds, key=lambda b: b.lower)
+    margin = None if not math.isfinite(tightest.lower) else tightest.lower
+    proved = all(_proved(s, b.lower) for s, b in zip(specs, bounds, strict=True))
+    elapsed = time.perf_counter() - started
+    common = dict(margin=margin, where=tightest if tightest.mode else None, spec_bounds=bounds,
+                  reach=result, falsification=found)
+    if proved and result.complete:
+        return Verdict(VerdictStatus.SAFE, texts,
+                       f"every spec holds on all {len(result.sets)} reach sets up to "
+                       f"t_end={problem.t_end:g}; smallest proven margin "
+                       f"{_fmt(tightest.lower)} (spec {tightest.spec!r} {tightest.where()})",
+                       time_s=elapsed, **common)
+    reasons = []
+    if not result.complete:
+        why = "; ".join(result.incomplete_reasons) or "not every branch reached t_end"
+        reasons.append(f"the reach result is incomplete ({why}): nothing is proved past it")
+    failing = [b for s, b in zip(specs, bounds, strict=True) if not _proved(s, b.lower)]
+    for b in failing:
+        reasons.append(f"the flowpipe bound of spec {b.spec!r} reaches {_fmt(b.lower)} "
+                       f"{b.where()} (after {b.jumps} jump(s)) while no simulation violated "
+                       f"it: the overlap may be spurious; tighten the reach (smaller time step, "
+                       f"higher zonotope order, less clustering) or split the initial set")
+    return Verdict(VerdictStatus.UNKNOWN, texts, "; ".join(reasons) + f"; {evidence}",
+                   time_s=elapsed, **common)
+
+
+def _fmt(x: float) -> str:
+    return f"{x:.6g}"
