@@ -15,7 +15,6 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from hybridlab.ensemble.cli import add_sweep_parser
-from hybridlab.ensemble.cli import add_sweep_parser
 from hybridlab.errors import HybridlabError, ModelError, SimulationError
 from hybridlab.graph import to_dot
 from hybridlab.identify.cli import add_identify_parser
@@ -178,7 +177,6 @@ def _parser() -> _Parser:
     graph.set_defaults(run=_cmd_graph)
 
     add_identify_parser(sub)
-    add_sweep_parser(sub)
     add_sweep_parser(sub)
     add_reach_parser(sub)
 
