@@ -18,6 +18,7 @@ from hybridlab.ensemble.cli import add_sweep_parser
 from hybridlab.errors import HybridlabError, ModelError, SimulationError
 from hybridlab.graph import to_dot
 from hybridlab.identify.cli import add_identify_parser
+from hybridlab.io.cli import add_import_parser
 from hybridlab.model.loader import load_model, model_json_schema
 from hybridlab.model.schema import Model
 from hybridlab.reachability.cli import add_reach_parser
@@ -177,6 +178,7 @@ def _parser() -> _Parser:
     graph.set_defaults(run=_cmd_graph)
 
     add_identify_parser(sub)
+    add_import_parser(sub)
     add_sweep_parser(sub)
     add_reach_parser(sub)
 
