@@ -251,7 +251,7 @@ def parse_conjunction(text: str, names: Mapping[str, str], symbols: Mapping[str,
     ['x <= 0', 'v < 0']
     >>> parse_conjunction("x' == v^2", {"x": "x", "v": "v"}, {"x": x, "v": v},
     ...                   allow_prime=True)[0].rhs.text
-    'v ** 2'
+    'v**2'
     """
     tokens = tokenize(text)
     if not tokens or (len(tokens) == 1 and tokens[0].text == "true"):
