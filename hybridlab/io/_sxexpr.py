@@ -132,7 +132,19 @@ def _split(tokens: list[Token], sep: str) -> list[list[Token]]:
 
 
 def _join(tokens: list[Token]) -> str:
-    return " ".join(t.text for t in tokens)
+    """The tokens as readable text (``x' <= -c*v``) for messages."""
+    out = ""
+    prev: Token | None = None
+    prev_unary = False
+    for tok in tokens:
+        unary = tok.text in ("+", "-") and (prev is None or prev.kind == "op"
+                                            and prev.text not in (")", "'"))
+        glue = (prev is None or tok.text in ("'", ")", ",", "*", "/", "^")
+                or prev.text in ("(", "*", "/", "^") or prev_unary
+                or (tok.text == "(" and prev.kind == "name"))
+        out += tok.text if glue else " " + tok.text
+        prev, prev_unary = tok, unary
+    return out
 
 
 def split_disjunction(text: str) -> list[str]:

@@ -1,0 +1,321 @@
+"""SpaceEx import: structure, semantics against closed forms, and one-line errors."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import hybridlab
+from hybridlab.cli import main
+from hybridlab.io import ConstraintSet, SpaceExError, load_spaceex, loads_spaceex
+
+ROOT = Path(__file__).resolve().parents[1]
+SPACEEX = ROOT / "models" / "spaceex"
+
+PARAM = '<param name="{}" type="real" local="false" d1="1" d2="1" dynamics="{}"/>'
+
+
+def ball_xml(flow: str = "x' == v &amp; v' == -g", guard: str = "x &lt;= 0 &amp; v &lt; 0",
+             assignment: str = "v' == -c*v", invariant: str = "x &gt;= 0") -> str:
+    params = "".join(PARAM.format(n, d) for n, d in
+                     (("x", "any"), ("v", "any"), ("g", "const"), ("c", "const")))
+    return f"""<?xml version="1.0" encoding="iso-8859-1"?>
+<sspaceex xmlns="http://www-verimag.imag.fr/xml-namespaces/sspaceex" version="0.2">
+<component id="ball">{params}<param name="hop" type="label" local="false"/>
+<location id="1" name="always"><invariant>{invariant}</invariant><flow>{flow}</flow></location>
+<transition source="1" target="1"><label>hop</label><guard>{guard}</guard>
+<assignment>{assignment}</assignment></transition></component></sspaceex>"""
+
+
+BALL_CFG = 'initially = "x == 10 & v == 0 & g == 9.81 & c == 0.8"\ntime-horizon = 5'
+
+
+def load_text(xml: str, cfg: str | None = BALL_CFG):
+    return loads_spaceex(xml, cfg, source="ball.xml", cfg_source="ball.cfg")
+
+
+def error_of(xml: str, cfg: str | None = BALL_CFG) -> str:
+    with pytest.raises(SpaceExError) as info:
+        load_text(xml, cfg)
+    text = str(info.value)
+    assert "\n" not in text
+    return text
+
+
+# ------------------------------------------------------------------ structure and semantics
+
+def test_bouncing_ball_file_imports_with_its_cfg():
+    p = load_spaceex(SPACEEX / "bouncing_ball.xml", SPACEEX / "bouncing_ball.cfg")
+    m = p.model
+    assert m.state_names == ("x", "v")
+    assert {k: v.value for k, v in m.parameters.items()} == {"c": 0.75, "g": 1.0}
+    assert m.modes["always"].flow == {"x": "v", "v": "-g"}
+    [tr] = m.transitions
+    assert (tr.name, tr.guard, tr.reset) == ("hop", ["x <= 0", "v < 0"], {"v": "-c*v"})
+    assert p.initial == {"x": (10.0, 10.2), "v": (0.0, 0.0)}
+    assert p.initial_modes == ("always",)
+    assert p.t_end == 40.0 and p.options.time_step == 0.05 and p.options.max_jumps == 10
+    [forbidden] = p.forbidden
+    assert forbidden.relations == ("x >= 10.25",) and forbidden.modes is None
+    assert forbidden.contains(np.array([10.3, 0.0])) and not forbidden.contains([10.2, 0.0])
+
+
+def test_converted_ball_bounces_at_the_closed_form_times():
+    p = load_text(ball_xml())
+    r = hybridlab.simulate(p.model, 5.0)
+    g, e, h0 = 9.81, 0.8, 10.0
+    t1 = math.sqrt(2 * h0 / g)
+    v1 = g * t1
+    expected = [t1, t1 + 2 * e * v1 / g]
+    assert [ev.t for ev in r.jumps] == pytest.approx(expected, rel=1e-9)
+    assert r(expected[0])[1] == pytest.approx(e * v1, rel=1e-9)  # post-impact velocity
+
+
+def test_model_round_trips_through_toml():
+    model = load_text(ball_xml()).model
+    again = hybridlab.loads_model(hybridlab.dumps_model(model))
+    assert again.model_dump() == model.model_dump()
+
+
+TIMED = """<sspaceex version="0.2">
+<component id="timer">
+  {t}<param name="tick" type="label" local="false"/>
+  <location id="1" name="wait"><invariant>t &lt;= 1</invariant><flow>t' == 1</flow></location>
+  <transition source="1" target="1"><label>tick</label><guard>t &gt;= 1</guard>
+    <assignment>t := 0</assignment></transition>
+</component>
+<component id="counter">
+  {n}<param name="tick" type="label" local="false"/>
+  <location id="1" name="even"><flow>n' == 0</flow></location>
+  <location id="2" name="odd"><flow>n' == 0</flow></location>
+  <transition source="1" target="2"><label>tick</label><assignment>n' == n + 1</assignment>
+  </transition>
+  <transition source="2" target="1"><label>tick</label><assignment>n' == n + 1</assignment>
+  </transition>
+</component>
+<component id="sys">
+  {t}{n}<param name="tick" type="label" local="false"/>
+  <bind component="timer" as="clk"><map key="t">t</map><map key="tick">tick</map></bind>
+  <bind component="counter" as="cnt"><map key="n">n</map><map key="tick">tick</map></bind>
+</component></sspaceex>""".format(t=PARAM.format("t", "any"), n=PARAM.format("n", "any"))
+
+
+def test_label_synchronised_product_of_a_timer_and_a_counter():
+    p = loads_spaceex(TIMED, 'system = sys\ninitially = "t == 0 & n == 0 & loc(cnt) == even"',
+                      source="timed.xml")
+    m = p.model
+    assert p.renamed == {"t": "t_"}  # t is hybridlab's time symbol
+    assert m.state_names == ("t_", "n")
+    assert set(m.modes) == {"even", "odd"} and m.initial.mode == "even"
+    # one synchronised transition per counter edge, guard from the timer, both resets
+    assert sorted((tr.source, tr.target) for tr in m.transitions) == [("even", "odd"),
+                                                                       ("odd", "even")]
+    for tr in m.transitions:
+        assert tr.guard == ["t_ >= 1"] and tr.reset == {"t_": "0", "n": "n + 1"}
+    r = hybridlab.simulate(m, 3.5)
+    assert [ev.t for ev in r.jumps] == pytest.approx([1.0, 2.0, 3.0], rel=1e-9)
+    assert r.final.mode == "odd"
+    assert r.final.state["n"] == pytest.approx(3.0)
+    assert r.final.state["t_"] == pytest.approx(0.5, rel=1e-9)
+
+
+def test_unsynchronised_transitions_interleave():
+    xml = TIMED.replace('<map key="tick">tick</map></bind>\n  <bind component="counter"',
+                        '</bind>\n  <bind component="counter"')
+    p = loads_spaceex(xml, 'system = sys\ninitially = "t == 0 & n == 0 & loc(cnt) == even"')
+    kinds = sorted((tr.source, tr.target, tr.guard == ["0 <= 0"]) for tr in p.model.transitions)
+    # the timer's local tick self-loops in both modes; the counter moves on its own (no guard)
+    assert kinds == [("even", "even", False), ("even", "odd", True), ("odd", "even", True),
+                     ("odd", "odd", False)]
+
+
+def test_polytope_initial_set_uncertain_constant_and_input():
+    xml = ball_xml(flow="x' == v + u &amp; v' == -g").replace(
+        '</location>', '</location>').replace(
+        '<param name="hop"', PARAM.format("u", "any") + '<param name="hop"').replace(
+        "<invariant>x &gt;= 0</invariant>", "<invariant>x &gt;= 0 &amp; u &gt;= -0.5 &amp; "
+        "u &lt;= 0.25</invariant>")
+    cfg = 'initially = "x + v <= 12 & x >= 10 & v >= 0 & g == 9.81 & c >= 0.7 & c <= 0.8"'
+    p = load_text(xml, cfg)
+    assert isinstance(p.initial, ConstraintSet)
+    assert p.initial.relations == ("x + v <= 12", "x >= 10", "v >= 0")
+    assert p.params == {"g": 9.81, "c": (0.7, 0.8)}
+    assert p.inputs == {"u": (-0.5, 0.25)}
+    assert p.model.parameters["u"].value == pytest.approx(-0.125)
+    x0 = np.array([p.model.states["x"].initial, p.model.states["v"].initial])
+    assert p.initial.contains(x0)
+    assert p.model.modes["always"].invariant == ["x >= 0"]  # the input bounds moved out
+
+
+def test_forbidden_union_with_locations():
+    p = loads_spaceex(TIMED, 'system = sys\ninitially = "t == 0 & n == 0"\n'
+                             'forbidden = "n >= 5 & loc(cnt) == odd | t >= 2"')
+    assert p.initial_modes == ("even", "odd")  # the counter's location is left open
+    first, second = p.forbidden
+    assert first.modes == frozenset({"odd"}) and first.relations == ("n >= 5",)
+    assert second.modes is None and second.A.tolist() == [[-1.0, 0.0]]
+
+
+def test_network_with_local_variable_and_nested_names():
+    xml = """<sspaceex><component id="osc">
+      <param name="x" type="real" local="false" d1="1" d2="1" dynamics="any"/>
+      <param name="y" type="real" local="true" d1="1" d2="1" dynamics="any"/>
+      <param name="w" type="real" local="false" d1="1" d2="1" dynamics="const"/>
+      <location id="1" name="run"><flow>x' == y &amp; y' == -w^2*x</flow></location>
+    </component><component id="net">
+      <param name="x" type="real" local="false" d1="1" d2="1" dynamics="any"/>
+      <bind component="osc" as="o"><map key="x">x</map><map key="w">2</map></bind>
+    </component></sspaceex>"""
+    p = loads_spaceex(xml, 'initially = "x == 1 & o.y == 0"\ntime-horizon = 1')
+    assert p.model.state_names == ("x", "o_y") and p.renamed == {"o.y": "o_y"}
+    assert p.model.modes["run"].flow == {"x": "o_y", "o_y": "-w**2*x"}
+    r = hybridlab.simulate(p.model, 1.0)
+    assert r.final.state["x"] == pytest.approx(math.cos(2.0), abs=1e-6)
+
+
+def test_every_bundled_spaceex_model_imports_and_simulates():
+    files = sorted(SPACEEX.glob("*.xml"))
+    assert files
+    for xml in files:
+        p = load_spaceex(xml, xml.with_suffix(".cfg"))
+        r = hybridlab.simulate(p.model, min(p.t_end or 1.0, 1.0))
+        assert r.status.ok, (xml.name, r.message)
+        assert p.forbidden, xml.name  # every benchmark states its property
+
+
+def test_cli_prints_toml_that_loads(capsys, tmp_path):
+    code = main(["import", "spaceex", str(SPACEEX / "bouncing_ball.xml"),
+                 "--cfg", str(SPACEEX / "bouncing_ball.cfg")])
+    out = capsys.readouterr().out
+    assert code == 0 and out.startswith("# imported from")
+    assert "# forbidden: x >= 10.25" in out
+    assert hybridlab.loads_model(out).state_names == ("x", "v")
+    target = tmp_path / "ball.toml"
+    assert main(["import", "spaceex", str(SPACEEX / "bouncing_ball.xml"), "-o",
+                 str(target)]) == 0
+    assert hybridlab.load_model(target).name == "bouncing_ball"
+
+
+def test_cli_user_error_is_one_line_with_exit_2(capsys, tmp_path):
+    bad = tmp_path / "bad.xml"
+    bad.write_text(ball_xml(flow="x' == vv &amp; v' == -g"))
+    assert main(["import", "spaceex", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "unknown variable (token 'vv')" in err
+
+
+# ------------------------------------------------------------------ errors
+
+LOC = "component[@id='ball']/location[@name='always']"
+
+
+@pytest.mark.parametrize(("kwargs", "expected"), [
+    ({"flow": "x' == vv &amp; v' == -g"}, f"ball.xml: {LOC}/flow: unknown variable (token 'vv')"),
+    ({"flow": "x' &lt;= v &amp; v' == -g"},
+     f"ball.xml: {LOC}/flow: a flow must be a conjunction of x' == expr (differential "
+     "inclusions are not supported) (token \"x' <= v\")"),
+    ({"flow": "x' == v &amp; v' == -g; import os"},
+     f"ball.xml: {LOC}/flow: unexpected character (token '; import os')"),
+    ({"guard": "__import__('os').system('ls') &gt;= 0"},
+     "ball.xml: component[@id='ball']/transition[1]/guard: unexpected character "
+     "(token \".system('ls') >= 0\")"),
+    ({"guard": "__import__(x) &gt;= 0"},
+     "ball.xml: component[@id='ball']/transition[1]/guard: unknown function "
+     "(token '__import__')"),
+    ({"guard": "x.__class__ &gt;= 0"},
+     "ball.xml: component[@id='ball']/transition[1]/guard: unknown variable "
+     "(token 'x.__class__')"),
+    ({"guard": "[x] &gt;= 0"},
+     "ball.xml: component[@id='ball']/transition[1]/guard: unexpected character (token "
+     "'[x] >= 0')"),
+    ({"guard": "x &lt;= 0 | v &lt; 0"},
+     "ball.xml: component[@id='ball']/transition[1]/guard: disjunction '|' is not supported "
+     "here (token '|')"),
+    ({"assignment": "v' &gt;= -c*v"},
+     "ball.xml: component[@id='ball']/transition[1]/assignment: an assignment must be x' == "
+     "expr or x := expr for a variable x (non-deterministic resets are not supported) "
+     "(token \"v' >= -c*v\")"),
+    ({"invariant": "x &gt;= 0 &amp; sgn(x) &lt; 2"},
+     f"ball.xml: {LOC}/invariant: unknown function (token 'sgn')"),
+    ({"invariant": "x &gt;= 1/0"}, f"ball.xml: {LOC}/invariant: division by zero (token '1/0')"),
+])
+def test_bad_expressions_give_one_line_errors(kwargs, expected):
+    assert error_of(ball_xml(**kwargs)) == expected
+
+
+def test_dtd_entity_bomb_is_refused():
+    levels = "".join(f'<!ENTITY lol{i} "{f"&lol{i - 1};" * 10}">' for i in range(1, 10))
+    bomb = ('<?xml version="1.0"?><!DOCTYPE lolz [<!ENTITY lol0 "lol">' + levels
+            + ']><sspaceex><component id="a">&lol9;</component></sspaceex>')
+    assert error_of(bomb) == ("ball.xml: sspaceex: DTDs and entity declarations are not allowed "
+                              "in SpaceEx files (token '<!DOCTYPE')")
+
+
+def test_external_entity_is_refused():
+    xxe = ('<?xml version="1.0"?><!DOCTYPE a [<!ENTITY e SYSTEM "file:///etc/passwd">]>'
+           '<sspaceex>&e;</sspaceex>')
+    assert "DTDs and entity declarations are not allowed" in error_of(xxe)
+
+
+@pytest.mark.parametrize(("xml", "cfg", "expected"), [
+    ("<sspaceex><component id='a'>", BALL_CFG,
+     "ball.xml: sspaceex: invalid XML: no element found (at line 1, column 29)"),
+    ("<model/>", BALL_CFG, "ball.xml: model: the root element must be <sspaceex> "
+                           "(token 'model')"),
+    (ball_xml(), 'initially = "x == 10 & v == 0 & g == 9.81"',
+     "ball.cfg: initially: constant has no value (map it to a number in a <bind> or give "
+     "'c == value' in the initially set) (token 'c')"),
+    (ball_xml(), 'initially = "x >= 10 & x <= 11 & v >= x & g == 9.81 & c == 0.8"',
+     "ball.cfg: initially: the initial set is unbounded in this variable (constrain it) "
+     "(token 'v')"),
+    (ball_xml(), 'initially = "x == 10 & v == 0 & g == 9.81 & c == 0.8 & loc(ball) == up"',
+     "ball.cfg: initially: automaton 'ball' has no location of this name (token 'up')"),
+    (ball_xml(), 'initially = "x == 10 & v == 0 & g == 9.81 & c == 0.8 & loc(b) == always"',
+     "ball.cfg: initially: loc(...) names no single automaton of the system (token 'loc(b)')"),
+    (ball_xml(), 'initially = "x*x <= 10 & v == 0 & g == 9.81 & c == 0.8"',
+     "ball.cfg: initially: the initial set must be given by linear constraints "
+     "(token 'x*x <= 10')"),
+    (ball_xml(), 'initially = "x == 10 & x == 11 & v == 0 & g == 9.81 & c == 0.8"',
+     "ball.cfg: initially: the initial set is empty"),
+    (ball_xml(), BALL_CFG + '\nforbidden = "x >= "',
+     "ball.cfg: forbidden: missing operand of a comparison"),
+    (ball_xml(), BALL_CFG + "\ntime-horizon = -1",
+     "ball.cfg: time-horizon: must be a positive finite number (token '-1')"),
+    (ball_xml(), 'initially "x == 1"', "ball.cfg: initially: line 1: expected '=' after the "
+                                       "key (token '\"x == 1\"')"),
+    (ball_xml(), BALL_CFG + "\nsystem = net", "ball.xml: system: no component with this id "
+                                              "(token 'net')"),
+])
+def test_file_and_cfg_errors(xml, cfg, expected):
+    assert error_of(xml, cfg) == expected
+
+
+def test_missing_file_error():
+    with pytest.raises(SpaceExError, match=r"^nope.xml: cannot read file"):
+        load_spaceex("nope.xml")
+
+
+JUNK = st.lists(st.sampled_from(list("xvgc'()+-*/^&|=<>:;.,!01 e_[]\"\\") +
+                                ["loc", "sin", "__import__", "os", "lambda", "==", "<=", ":=",
+                                 "true", "1e400", "\n"]),
+                max_size=25).map("".join)
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(guard=JUNK, assignment=JUNK)
+def test_random_expression_text_gives_a_model_or_a_one_line_error(guard, assignment):
+    from xml.sax.saxutils import escape
+
+    xml = ball_xml(guard=escape(guard), assignment=escape(assignment))
+    try:
+        p = load_text(xml)
+    except SpaceExError as exc:
+        text = str(exc)
+        assert "\n" not in text and text.startswith("ball.xml: component[@id='ball']/")
+    else:
+        assert isinstance(p.model, hybridlab.Model)
