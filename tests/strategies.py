@@ -449,6 +449,21 @@ def mutated_model_texts(draw: st.DrawFn) -> str:
     return text
 
 
+# ----------------------------------------------------------------------------------------
+# (e) safety spec text ("[MODE, ...:] RELATION"), valid or not
+_SPEC_MODES = ("fall", "rise", "*", "fall, fall", "fall,", "1x", "", "fall: fall")
+
+
+def spec_texts() -> st.SearchStrategy[str]:
+    """Spec-like text: an optional mode list, then relation-like or arbitrary text."""
+    relation = st.builds("{} {} {}".format, expression_texts(max_leaves=4),
+                         st.sampled_from(("<", "<=", ">", ">=", "==", "and", ":")),
+                         expression_texts(max_leaves=4))
+    body = st.one_of(relation, expression_texts(max_leaves=6), arbitrary_texts())
+    prefixed = st.builds("{}: {}".format, st.sampled_from(_SPEC_MODES), body)
+    return st.one_of(body, prefixed)
+
+
 def any_model_texts() -> st.SearchStrategy[str]:
     """Everything above, mixed."""
     return st.one_of(arbitrary_texts(), toml_documents(), mutated_model_texts())
@@ -470,5 +485,6 @@ __all__ = [
     "toml_documents",
     "toml_tables",
     "valid_model_dicts",
+    "spec_texts",
     "valid_models",
 ]

@@ -1,0 +1,268 @@
+"""Safety specs, falsification, counterexamples, verdicts and assert_safe (issue 5, items 4-5)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from strategies import spec_texts
+
+import hybridlab
+from hybridlab.reachability.falsify import FalsifyOptions, falsify, resolve_problem
+from hybridlab.reachability.spec import Avoid, Spec, SpecError, as_specs, parse_spec
+from hybridlab.verify import SafetyAssertionError, VerdictStatus, assert_safe, check_safety
+
+ROOT = Path(__file__).resolve().parents[1]
+BALL = ROOT / "models" / "bouncing_ball.toml"
+
+TWO_MODES = """
+name = "two"
+parameters = { a = 1.0 }
+states = { x = 0.0, y = 0.0 }
+[modes.up]
+flow = { x = "k", y = "0" }
+definitions = { k = "a" }
+[modes.down]
+flow = { x = "-1", y = "0" }
+[[transitions]]
+name = "flip"
+source = "up"
+target = "down"
+guard = "x >= 2"
+[initial]
+mode = "up"
+"""
+
+OSCILLATOR = """
+name = "oscillator"
+states = { x = 1.0, v = 0.0 }
+[modes.run]
+flow = { x = "v", v = "-x" }
+[initial]
+mode = "run"
+"""
+
+DRIFT = """
+name = "drift"
+parameters = { u = 0.0 }
+states = { x = 0.0, y = 0.0 }
+[modes.run]
+flow = { x = "u", y = "0" }
+[initial]
+mode = "run"
+"""
+
+
+@pytest.fixture(scope="module")
+def two():
+    return hybridlab.compile_model(hybridlab.loads_model(TWO_MODES))
+
+
+@pytest.fixture(scope="module")
+def ball():
+    return hybridlab.compile_model(hybridlab.load_model(BALL))
+
+
+# ----------------------------------------------------------------------------- specs
+def test_spec_rows_are_normalised_to_nonnegative_margins(ball):
+    spec = parse_spec("0 <= h <= 10 and v > -20", ball)
+    assert spec.kind == "all" and spec.modes is None
+    assert [str(r) for r in spec.rows["fall"]] == ["h", "10 - h", "v + 20"]
+    # margins at (h, v) = (5, 0) and (11, -25)
+    values = np.array([[5.0, 11.0], [5.0, -1.0], [20.0, -5.0]])
+    assert spec.margin(values).tolist() == [5.0, -5.0]
+    assert spec.violated(-5.0) and not spec.violated(0.0)
+
+
+def test_mode_lists_definitions_and_parameters(two):
+    up = parse_spec("up: x <= k + 1", two)  # a mode-local definition, substituted
+    assert up.modes == ("up",) and set(up.rows) == {"up"}
+    assert str(up.rows["up"][0]) == "a - x + 1"
+    both = parse_spec(" up , down : x >= -a", two)
+    assert both.modes == ("up", "down") and set(both.rows) == {"up", "down"}
+    assert parse_spec("*: x >= 0", two).modes is None
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("side: x >= 0", "spec 'side: x >= 0': unknown mode; the model has: up, down (token 'side')"),
+    ("x >= z", "spec 'x >= z': unknown symbol (token 'z')"),
+    ("x == 1", "spec 'x == 1': only inequalities (<, <=, >, >=) are allowed (token '==')"),
+    ("x >= 0 or y >= 0", "spec 'x >= 0 or y >= 0': 'or' is not supported; use one transition "
+                         "per alternative (token 'or')"),
+    ("x", "spec 'x': an inequality such as 'x >= 0' is expected (token 'x')"),
+    ("x >= t", "spec 'x >= t': time is not allowed in a safety spec; restrict the spec to modes "
+               "instead (token 't')"),
+    ("up:", "spec 'up:': empty expression"),
+    ("down: x <= k", "spec 'down: x <= k': 'k' is defined in other modes but not in mode 'down' "
+                     "(token 'k')"),
+    ("__import__('os').system('x') >= 0",
+     "spec \"__import__('os').system('x') >= 0\": only the built-in functions can be called "
+     "(token \"__import__('os').system\")"),
+])
+def test_bad_specs_give_one_line_naming_the_spec_and_token(two, text, message):
+    with pytest.raises(SpecError) as info:
+        parse_spec(text, two)
+    assert str(info.value) == message
+    assert isinstance(info.value, ValueError)
+
+
+def test_unrestricted_spec_on_a_mode_local_definition_says_how_to_restrict_it(two):
+    with pytest.raises(SpecError, match=r"restrict the spec to the modes that define it"):
+        parse_spec("x <= k", two)
+
+
+@settings(max_examples=150, deadline=None)
+@given(text=spec_texts())
+def test_any_spec_text_gives_a_spec_or_a_one_line_spec_error(text):
+    model = hybridlab.load_model(BALL)
+    try:
+        spec = parse_spec(text, model)
+    except SpecError as exc:
+        message = str(exc)
+        assert message.startswith(f"spec {text!r}: ")
+        assert "\n" not in message.replace(repr(text), "")
+    else:
+        assert isinstance(spec, Spec) and spec.rows and all(spec.rows.values())
+
+
+def test_avoid_regions_from_boxes_and_polytopes(ball):
+    box = Avoid(box={"h": (-1.0, 0.5), "v": (-3.0, 3.0)}).bind(ball)
+    assert box.kind == "any" and box.strict and len(box.rows["fall"]) == 4
+    # (h, v) = (0, 0) is inside, (1, 0) and (0, 4) are outside
+    pts = {"inside": (0.0, 0.0), "above": (1.0, 0.0), "fast": (0.0, 4.0)}
+    for name, (h, v) in pts.items():
+        point = dict(zip(ball.symbolic.states, (h, v), strict=True))
+        values = np.array([[float(r.subs(point))] for r in box.rows["fall"]])
+        assert bool(box.violated(box.margin(values)[0])) == (name == "inside")
+    poly = Avoid(polytope=([[1.0, 1.0]], [2.0]), modes=("fall",), name="h + v <= 2").bind(ball)
+    assert poly.text == "h + v <= 2" and str(poly.rows["fall"][0]) == "1.0*h + 1.0*v - 2.0"
+    with pytest.raises(SpecError, match="unknown state in box"):
+        Avoid(box={"w": (0, 1)}).bind(ball)
+    with pytest.raises(SpecError, match="exactly one of"):
+        Avoid().bind(ball)
+    with pytest.raises(SpecError, match=r"shape \(m, 2\)"):
+        Avoid(polytope=([[1.0]], [2.0])).bind(ball)
+    with pytest.raises(ValueError, match="at least one spec"):
+        as_specs([], ball)
+
+
+# ----------------------------------------------------------------------------- problem
+def test_problem_arguments_are_checked_by_name(ball):
+    with pytest.raises(ValueError, match="initial: unknown state 'w'"):
+        resolve_problem(ball, initial={"w": (0, 1)}, t_end=1.0)
+    with pytest.raises(ValueError, match=r"initial\['h'\] needs lo <= hi"):
+        resolve_problem(ball, initial={"h": (2, 1)}, t_end=1.0)
+    with pytest.raises(ValueError, match="params: unknown parameter 'G'"):
+        resolve_problem(ball, initial={}, t_end=1.0, params={"G": 1.0})
+    with pytest.raises(ValueError, match="inputs: 'e' is also given in params"):
+        resolve_problem(ball, initial={}, t_end=1.0, params={"e": 0.5}, inputs={"e": (0, 1)})
+    with pytest.raises(ValueError, match="t_end must be finite"):
+        resolve_problem(ball, initial={}, t_end=math.inf)
+    with pytest.raises(ValueError, match="scenario: unknown scenario 'fast'"):
+        resolve_problem(ball, initial={}, t_end=1.0, scenario="fast")
+    pb = resolve_problem(ball, initial={"h": 3.0}, t_end=1.0, scenario="benchmark")
+    assert pb.dims == 0 and pb.x0.tolist() == [3.0, 0.0]
+    assert pb.p0[ball.parameter_names.index("e")] == 0.95
+
+
+# ----------------------------------------------------------------------------- falsification
+def test_falsification_finds_the_exact_first_violation_instant_from_a_corner(ball):
+    # from h0 = 10 (a corner of [5, 10]) the speed reaches 13 at t = 13/g, before the impact
+    pb = resolve_problem(ball, initial={"h": (5.0, 10.0)}, t_end=2.0)
+    found = falsify(pb, [parse_spec("v >= -13", ball)])
+    cx = found.counterexample
+    assert cx is not None and cx.spec == "v >= -13" and cx.mode == "fall"
+    assert cx.initial == {"h": 10.0, "v": 0.0}
+    assert cx.t == pytest.approx(13 / 9.81, abs=1e-12)
+    assert cx.state["v"] == pytest.approx(-13.0, abs=1e-10)
+    # the worst point of that run is the impact, sqrt(2 g h0)
+    assert cx.t_worst == pytest.approx(math.sqrt(2 * 10 / 9.81), abs=1e-8)
+    assert cx.margin == pytest.approx(13 - math.sqrt(2 * 9.81 * 10), abs=1e-7)
+
+
+def test_a_violation_between_integrator_steps_is_found_in_dense_time():
+    # x = cos t dips below -0.9999999 only for |t - pi| < 4.5e-4, far inside one DOP853 step
+    osc = hybridlab.compile_model(hybridlab.loads_model(OSCILLATOR))
+    # tight tolerances: near the dip the crossing time is 2000 times as sensitive as x
+    tight = hybridlab.SimulationOptions(rtol=1e-12, atol=1e-14)
+    pb = resolve_problem(osc, initial={}, t_end=4.0, simulation=tight)
+    result = pb.run(pb.x0, pb.p0)
+    assert np.abs(result.t - math.pi).min() > 0.01  # no stored point in the dip
+    found = falsify(pb, [parse_spec("x >= -0.9999999", osc)])
+    cx = found.counterexample
+    assert cx is not None and found.runs == 1
+    assert cx.t == pytest.approx(math.pi - math.acos(0.9999999), abs=1e-8)
+    assert cx.t_worst == pytest.approx(math.pi, abs=1e-5)
+    assert cx.margin == pytest.approx(-1e-7, rel=1e-3)
+
+
+def test_counterexample_replays_bit_for_bit(ball):
+    pb = resolve_problem(ball, initial={"h": (5.0, 10.0)}, t_end=3.0, params={"e": (0.5, 0.9)})
+    # after the first bounce v = e*sqrt(2 g h0): above 11 needs e*sqrt(2 g h0) > 11
+    cx = falsify(pb, [parse_spec("v <= 11", ball)]).counterexample
+    assert cx is not None
+    assert cx.parameters["e"] * math.sqrt(2 * 9.81 * cx.initial["h"]) > 11
+    assert cx.t == pytest.approx(math.sqrt(2 * cx.initial["h"] / 9.81), abs=1e-9)  # the bounce
+    first, again = cx.replay(), cx.replay()
+    assert np.array_equal(first.t, again.t) and np.array_equal(first.y, again.y)
+    assert [e.t for e in first.events] == [e.t for e in again.events]
+    assert first.parameters["e"] == cx.parameters["e"]
+    assert first(cx.t_worst)[1] == pytest.approx(11 - cx.margin, abs=1e-9)
+
+
+def test_uncertain_constant_inputs_are_sampled_and_reported():
+    drift = hybridlab.compile_model(hybridlab.loads_model(DRIFT))
+    pb = resolve_problem(drift, initial={"x": (0.0, 0.5)}, t_end=2.0, inputs={"u": (-1.0, 1.0)})
+    cx = falsify(pb, [parse_spec("x <= 1.75", drift)]).counterexample
+    assert cx is not None and cx.inputs == {"u": 1.0} and cx.parameters == {"u": 1.0}
+    assert cx.t == pytest.approx(1.75 - cx.initial["x"], abs=1e-12)
+
+
+def test_local_search_finds_a_small_unsafe_region_that_samples_miss():
+    drift = hybridlab.compile_model(hybridlab.loads_model(DRIFT))
+    spec = parse_spec("(x - 0.31)**2 + (y - 0.62)**2 >= 0.03**2", drift)
+    pb = resolve_problem(drift, initial={"x": (0.0, 1.0), "y": (0.0, 1.0)}, t_end=0.5)
+    options = FalsifyOptions(samples=4, local_evals=0)
+    assert falsify(pb, [spec], options).counterexample is None
+    found = falsify(pb, [spec], FalsifyOptions(samples=4, local_evals=60))
+    cx = found.counterexample
+    assert cx is not None and found.runs <= 1 + 4 + 4 + 60
+    assert math.hypot(cx.initial["x"] - 0.31, cx.initial["y"] - 0.62) < 0.03
+
+
+def test_no_violation_reports_the_lowest_simulated_margin(ball):
+    pb = resolve_problem(ball, initial={"h": (5.0, 10.0)}, t_end=2.0)
+    found = falsify(pb, [parse_spec("h <= 10.5", ball)], FalsifyOptions(local_evals=5))
+    assert found.counterexample is None
+    assert found.margins["h <= 10.5"] == pytest.approx(0.5, abs=1e-12)
+    assert found.runs == 1 + 2 + FalsifyOptions().samples + 5
+
+
+# ----------------------------------------------------------------------------- verdicts
+def test_unsafe_verdict_and_assert_safe_message(ball):
+    verdict = check_safety(ball, initial={"h": (5.0, 10.0)}, t_end=2.0, safe=["v >= -13"])
+    assert verdict.status is VerdictStatus.UNSAFE and verdict.margin < 0
+    assert verdict.reach is None  # reachability is not needed once a violation is found
+    data = verdict.as_dict()
+    assert data["verdict"] == "UNSAFE" and data["counterexample"]["t"] == verdict.counterexample.t
+    with pytest.raises(AssertionError) as info:
+        assert_safe(ball, initial={"h": (5.0, 10.0)}, t_end=2.0, safe=["h >= -1", "v >= -13"])
+    message = str(info.value)
+    assert message.splitlines()[0] == (
+        f"UNSAFE: spec 'v >= -13' violated at t={13 / 9.81:.10g} in mode 'fall'")
+    assert "state: h=1.38634, v=-13" in message
+    assert isinstance(info.value, SafetyAssertionError)
+    assert info.value.verdict.counterexample.initial["h"] == 10.0
+
+
+def test_unknown_without_reachability_is_an_assertion_unless_allowed(ball):
+    kwargs = dict(initial={"h": (5.0, 10.0)}, t_end=1.0, safe="h >= -1", prove=False,
+                  falsify_options=FalsifyOptions(samples=2, local_evals=0))
+    with pytest.raises(SafetyAssertionError, match=r"^UNKNOWN: reachability was not attempted"):
+        assert_safe(ball, **kwargs)
+    verdict = assert_safe(ball, allow_unknown=True, **kwargs)
+    assert verdict.status is VerdictStatus.UNKNOWN and verdict.margin is None
+    assert verdict.falsification.runs == 1 + 2 + 2
