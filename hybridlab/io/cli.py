@@ -31,7 +31,7 @@ def problem_header(problem: SpaceExProblem) -> str:
     # imported from models/spaceex/bouncing_ball.xml, models/spaceex/bouncing_ball.cfg
     # initial set: x in [10, 10.2], v in [0, 0]; modes: always
     # forbidden: x >= 10.25
-    # time horizon 40, sampling time 0.05, max jumps 10
+    # time horizon 20, sampling time 0.05, max jumps 10
     """
     lines = [f"# imported from {', '.join(problem.source)}"]
     if isinstance(problem.initial, ConstraintSet):

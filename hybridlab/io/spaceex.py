@@ -162,6 +162,59 @@ class SpaceExProblem:
     source: tuple[str, ...]
     renamed: Mapping[str, str]
 
+    def safe_specs(self) -> tuple[Any, ...]:
+        """The forbidden set as ``hybridlab.verify.Avoid`` regions (one per disjunct).
+
+        Examples
+        --------
+        >>> p = load_spaceex("models/spaceex/bouncing_ball.xml",
+        ...                  "models/spaceex/bouncing_ball.cfg")
+        >>> [a.name for a in p.safe_specs()]
+        ['forbidden: x >= 10.25']
+        """
+        from hybridlab.reachability.spec import Avoid
+
+        out = []
+        for f in self.forbidden:
+            if f.A is None:
+                raise ValueError(f"safe_specs: forbidden set {' and '.join(f.relations)!r} is "
+                                 "not linear")
+            modes = tuple(sorted(f.modes)) if f.modes is not None else None
+            out.append(Avoid(polytope=(f.A, f.b), modes=modes,
+                             name="forbidden: " + " and ".join(f.relations)))
+        return tuple(out)
+
+    def reach_kwargs(self) -> dict[str, Any]:
+        """Keyword arguments for ``hybridlab.reach`` / ``hybridlab.verify.check_safety``.
+
+        The initial set, mode (the first initial mode), horizon, uncertain constants,
+        inputs, and the ``.cfg``'s sampling time and iteration bound as ``step`` and
+        ``max_jumps``.
+
+        Examples
+        --------
+        >>> p = load_spaceex("models/spaceex/bouncing_ball.xml",
+        ...                  "models/spaceex/bouncing_ball.cfg")
+        >>> sorted(p.reach_kwargs())
+        ['initial', 'max_jumps', 'mode', 'step', 't_end']
+        """
+        initial: Any = self.initial
+        if isinstance(initial, ConstraintSet):
+            initial = initial.to_polytope()
+        out: dict[str, Any] = {"initial": initial, "mode": self.initial_modes[0]}
+        if self.t_end is not None:
+            out["t_end"] = self.t_end
+        uncertain = {k: v for k, v in self.params.items() if isinstance(v, tuple)}
+        if uncertain:
+            out["params"] = uncertain
+        if self.inputs:
+            out["inputs"] = dict(self.inputs)
+        if self.options.time_step is not None:
+            out["step"] = self.options.time_step
+        if self.options.max_jumps is not None:
+            out["max_jumps"] = self.options.max_jumps
+        return out
+
 
 # ---------------------------------------------------------------------------- names
 
@@ -766,7 +819,7 @@ def load_spaceex(path: str | Path, cfg: str | Path | None = None, *,
     >>> p = load_spaceex("models/spaceex/bouncing_ball.xml",
     ...                  "models/spaceex/bouncing_ball.cfg")
     >>> p.initial, p.t_end
-    ({'x': (10.0, 10.2), 'v': (0.0, 0.0)}, 40.0)
+    ({'x': (10.0, 10.2), 'v': (0.0, 0.0)}, 20.0)
     >>> r = hybridlab.simulate(p.model, 2.0)
     >>> round(float(r.final.state["x"]), 6)  # 10.1 - t**2/2
     8.1
