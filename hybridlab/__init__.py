@@ -15,6 +15,7 @@ from hybridlab.errors import (
     ZenoError,
 )
 from hybridlab.graph import mode_graph, to_dot
+from hybridlab.io import load_spaceex
 from hybridlab.model import (
     Initial,
     Mechanics,
@@ -67,6 +68,7 @@ __all__ = [
     "compile_model",
     "dumps_model",
     "load_model",
+    "load_spaceex",
     "loads_model",
     "mode_graph",
     "model_from_dict",
