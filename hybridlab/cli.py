@@ -2,7 +2,8 @@
 
 Exit codes: 0 success; 2 user error (bad model, file or argument: one line on
 stderr, no traceback); 3 a simulation that ended before ``t_end`` (its status
-says why); 1 an internal error.
+says why); 4 ``graph --check`` reported a warning or an error; 1 an internal
+error.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from pathlib import Path
 
 from hybridlab.ensemble.cli import add_sweep_parser
 from hybridlab.errors import HybridlabError, ModelError, SimulationError
-from hybridlab.graph import to_dot
+from hybridlab.graph import check_mode_graph, to_dot
 from hybridlab.identify.cli import add_identify_parser
 from hybridlab.io.cli import add_import_parser
 from hybridlab.model.loader import load_model, model_json_schema
@@ -28,7 +29,7 @@ from hybridlab.symbolic.compile import compile_model
 
 __all__ = ["main"]
 
-EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INCOMPLETE = 0, 1, 2, 3
+EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INCOMPLETE, EXIT_FINDINGS = 0, 1, 2, 3, 4
 
 
 class _UsageError(Exception):
@@ -130,7 +131,15 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
 
 def _cmd_graph(args: argparse.Namespace) -> int:
-    text = to_dot(load_model(args.model))
+    if args.max_cycle_length < 1:
+        raise _UsageError(f"--max-cycle-length must be at least 1 (got {args.max_cycle_length})")
+    model = load_model(args.model)
+    if args.check:
+        report = check_mode_graph(model, scenarios=args.scenario,
+                                  max_cycle_length=args.max_cycle_length)
+        print(report)
+        return EXIT_OK if report.ok else EXIT_FINDINGS
+    text = to_dot(model)
     if args.out:
         Path(args.out).write_text(text)
         print(f"wrote {args.out}")
@@ -172,9 +181,16 @@ def _parser() -> _Parser:
     sim.add_argument("--out", help="write the result (.json, .csv or .npz)")
     sim.set_defaults(run=_cmd_simulate)
 
-    graph = sub.add_parser("graph", help="print the mode graph in Graphviz DOT")
+    graph = sub.add_parser("graph", help="print the mode graph in Graphviz DOT, or check it")
     graph.add_argument("model")
     graph.add_argument("--out", help="write the DOT text to this file")
+    graph.add_argument("--check", action="store_true",
+                       help="report dead modes, guards that never hold, zero-dwell cycles; "
+                            "exit 4 on a warning or an error")
+    graph.add_argument("--scenario", action="append", metavar="NAME",
+                       help="with --check: check only this scenario's parameters (repeatable)")
+    graph.add_argument("--max-cycle-length", type=int, default=8, dest="max_cycle_length",
+                       help="with --check: longest cycle examined (default 8)")
     graph.set_defaults(run=_cmd_graph)
 
     add_identify_parser(sub)

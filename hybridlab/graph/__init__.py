@@ -1,5 +1,31 @@
-"""Mode-graph analysis: the mode graph (networkx), DOT export and static checks."""
+"""Mode-graph analysis: the mode graph (networkx), DOT export and static checks.
+
+:func:`mode_graph` and :func:`to_dot` draw the graph; :func:`check_mode_graph`
+finds dead modes, guards that never hold, resets that always leave the target
+invariant, sink modes and zero-dwell cycles (see ``docs/mode-graph.md``).
+"""
 
 from hybridlab.graph._dot import mode_graph, to_dot
+from hybridlab.graph.check import (
+    CycleCheck,
+    Finding,
+    GraphReport,
+    Severity,
+    TransitionCheck,
+    check_mode_graph,
+)
+from hybridlab.graph.feasibility import Decision, Verdict, decide
 
-__all__ = ["mode_graph", "to_dot"]
+__all__ = [
+    "CycleCheck",
+    "Decision",
+    "Finding",
+    "GraphReport",
+    "Severity",
+    "TransitionCheck",
+    "Verdict",
+    "check_mode_graph",
+    "decide",
+    "mode_graph",
+    "to_dot",
+]
