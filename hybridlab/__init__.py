@@ -32,6 +32,15 @@ from hybridlab.model import (
     model_from_dict,
     model_json_schema,
 )
+from hybridlab.reachability import (
+    Box,
+    Polytope,
+    ReachOptions,
+    ReachResult,
+    ReachSet,
+    Zonotope,
+    reach,
+)
 from hybridlab.simulation import (
     Event,
     SimulationOptions,
@@ -44,6 +53,7 @@ from hybridlab.symbolic import CompiledModel, compile_model
 __version__ = "0.1.0"
 
 __all__ = [
+    "Box",
     "CompilationError",
     "CompiledModel",
     "Event",
@@ -55,6 +65,10 @@ __all__ = [
     "Model",
     "ModelError",
     "Parameter",
+    "Polytope",
+    "ReachOptions",
+    "ReachResult",
+    "ReachSet",
     "Scenario",
     "Schedule",
     "SimulationError",
@@ -65,6 +79,7 @@ __all__ = [
     "SweepResult",
     "Transition",
     "ZenoError",
+    "Zonotope",
     "compile_model",
     "dumps_model",
     "load_model",
@@ -73,6 +88,7 @@ __all__ = [
     "mode_graph",
     "model_from_dict",
     "model_json_schema",
+    "reach",
     "simulate",
     "simulate_many",
     "sweep",

@@ -1,0 +1,37 @@
+"""Set-based reachability, sound in dense time.
+
+``hybridlab.reach(model, initial=..., t_end=...)`` returns a
+:class:`ReachResult`: zonotope flowpipes per mode that contain every state
+reachable from the initial set at every time (not only at time steps), bounds
+per state and the reachable modes. See ``docs/verification.md``.
+
+Modules: :mod:`~.interval` (interval arithmetic), :mod:`~.sets` (boxes,
+zonotopes, polytopes), :mod:`~.system` (the model's equations on the extended
+state), :mod:`~.linear` (one affine step), :mod:`~.nonlinear` (conservative
+linearisation), :mod:`~.hybrid` (guards, resets, waiting list),
+:mod:`~.result`, :mod:`~.options`, :mod:`~.plot`.
+"""
+
+from hybridlab.reachability.api import ReachError, reach
+from hybridlab.reachability.interval import Interval, IntervalError, IntervalFunction
+from hybridlab.reachability.linear import StepError
+from hybridlab.reachability.options import ReachOptions
+from hybridlab.reachability.result import ReachResult, ReachSet
+from hybridlab.reachability.sets import Box, Polytope, SetError, Zonotope, as_zonotope
+
+__all__ = [
+    "Box",
+    "Interval",
+    "IntervalError",
+    "IntervalFunction",
+    "Polytope",
+    "ReachError",
+    "ReachOptions",
+    "ReachResult",
+    "ReachSet",
+    "SetError",
+    "StepError",
+    "Zonotope",
+    "as_zonotope",
+    "reach",
+]

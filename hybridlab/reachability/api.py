@@ -1,0 +1,210 @@
+"""The public entry point :func:`reach`."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from hybridlab.errors import HybridlabError
+from hybridlab.model.loader import load_model
+from hybridlab.model.schema import Model
+from hybridlab.reachability.hybrid import run_analysis
+from hybridlab.reachability.options import ReachOptions
+from hybridlab.reachability.result import ReachResult
+from hybridlab.reachability.sets import Box, Polytope, Zonotope, as_zonotope
+from hybridlab.reachability.system import build_system
+from hybridlab.symbolic.compile import CompiledModel, compile_model
+
+__all__ = ["ReachError", "reach"]
+
+
+class ReachError(HybridlabError, ValueError):
+    """A reachability problem is ill-posed (bad initial set, bounds or names)."""
+
+
+def _compiled(model: Model | CompiledModel | str | Path) -> CompiledModel:
+    if isinstance(model, CompiledModel):
+        return model
+    if isinstance(model, str | Path):
+        model = load_model(model)
+    if not isinstance(model, Model):
+        raise TypeError(f"model must be a Model, CompiledModel or path (got "
+                        f"{type(model).__name__})")
+    return compile_model(model)
+
+
+def _interval(value: Any, what: str) -> tuple[float, float]:
+    try:
+        if isinstance(value, tuple | list):
+            if len(value) != 2:
+                raise ReachError(f"{what} must be a number or a (lo, hi) pair (got {value!r})")
+            lo, hi = float(value[0]), float(value[1])
+        else:
+            lo = hi = float(value)
+    except (TypeError, ValueError) as exc:
+        if isinstance(exc, ReachError):
+            raise
+        raise ReachError(f"{what} must be a number or a (lo, hi) pair (got {value!r})") from None
+    if not (np.isfinite(lo) and np.isfinite(hi)):
+        raise ReachError(f"{what} must be finite (got {value!r})")
+    if lo > hi:
+        raise ReachError(f"{what} must have lo <= hi (got {value!r})")
+    return lo, hi
+
+
+def _known(name: str, names: tuple[str, ...], kind: str) -> None:
+    if name not in names:
+        raise ReachError(f"unknown {kind} {name!r}; expected one of: {', '.join(names)}")
+
+
+def reach(
+    model: Model | CompiledModel | str | Path,
+    *,
+    initial: Mapping[str, float | tuple[float, float]] | Box | Zonotope | Polytope | None = None,
+    t_end: float | None = None,
+    mode: str | None = None,
+    scenario: str | None = None,
+    params: Mapping[str, float | tuple[float, float]] | None = None,
+    inputs: Mapping[str, tuple[float, float]] | None = None,
+    options: ReachOptions | None = None,
+    **option_overrides: Any,
+) -> ReachResult:
+    """Sets of states reachable from a set of initial states, sound in dense time.
+
+    Parameters
+    ----------
+    model : Model, CompiledModel, str or pathlib.Path
+        The hybrid automaton (a path is loaded with :func:`hybridlab.load_model`).
+    initial : mapping or set, optional
+        A box given per state (a number or a ``(lo, hi)`` pair; states not named
+        start at their scenario/model initial value), or a :class:`Box`,
+        :class:`Zonotope` or :class:`Polytope` over all states in model order.
+    t_end : float, optional
+        Horizon; defaults to the scenario's ``t_end``.
+    mode : str, optional
+        Initial mode (default: the scenario's, else the model's).
+    scenario : str, optional
+        Scenario supplying parameter values, initial values, ``t_start`` and
+        ``t_end`` (``"default"`` when the model has one).
+    params : mapping, optional
+        Parameter values; a ``(lo, hi)`` pair makes the parameter an uncertain
+        *constant* (an extra state with zero flow).
+    inputs : mapping, optional
+        Parameters that vary arbitrarily in time within ``(lo, hi)``
+        (bounded inputs; they may appear in flows only).
+    options : ReachOptions, optional
+        Settings; keyword arguments override its fields (``step=0.01``,
+        ``max_jumps=10``, ...).
+
+    Returns
+    -------
+    ReachResult
+
+    Raises
+    ------
+    ReachError
+        For unknown names, malformed intervals or sets, or a bad horizon.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> result = hybridlab.reach("models/bouncing_ball.toml", initial={"h": (9.0, 10.0)},
+    ...                          t_end=2.0, step=0.01)
+    >>> result.complete, sorted(result.reachable_modes)
+    (True, ['fall'])
+    >>> lo, hi = result.bounds["h"]
+    >>> bool(hi >= 10.0 and hi < 10.01 and lo <= 0.0)
+    True
+    """
+    compiled = _compiled(model)
+    spec = compiled.model
+    if scenario is None and "default" in spec.scenarios:
+        scenario = "default"
+    sc = None
+    if scenario is not None:
+        if scenario not in spec.scenarios:
+            raise ReachError(f"unknown scenario {scenario!r}; the model has: "
+                             f"{', '.join(spec.scenarios) or 'none'}")
+        sc = spec.scenarios[scenario]
+    if t_end is None:
+        if sc is None:
+            raise ReachError("t_end is required: give t_end or a scenario")
+        t_end = sc.t_end
+    t0 = float(sc.t_start) if sc else 0.0
+    t_end = float(t_end)
+    if not (np.isfinite(t_end) and t_end > t0):
+        raise ReachError(f"t_end must be finite and greater than t_start={t0} (got {t_end!r})")
+    mode = mode or (sc.mode if sc and sc.mode else spec.initial.mode)
+    if mode not in spec.modes:
+        raise ReachError(f"unknown mode {mode!r}; the model has: {', '.join(spec.modes)}")
+
+    pnames = compiled.parameter_names
+    point: dict[str, float] = dict(sc.parameters) if sc else {}
+    uncertain: dict[str, tuple[float, float]] = {}
+    for name, value in (params or {}).items():
+        _known(name, pnames, "parameter")
+        lo, hi = _interval(value, f"params[{name!r}]")
+        if lo == hi:
+            point[name] = lo
+        else:
+            uncertain[name] = (lo, hi)
+            point.pop(name, None)
+    bounded: dict[str, tuple[float, float]] = {}
+    for name, value in (inputs or {}).items():
+        _known(name, pnames, "parameter")
+        if name in uncertain or name in (params or {}):
+            raise ReachError(f"parameter {name!r} is given both in params and in inputs")
+        if not isinstance(value, tuple | list):
+            raise ReachError(f"inputs[{name!r}] must be a (lo, hi) pair (got {value!r})")
+        bounded[name] = _interval(value, f"inputs[{name!r}]")
+    p = compiled.parameter_vector(point)
+
+    system = build_system(compiled, p, uncertain, bounded)
+    for name in bounded:
+        sym = dict(zip(pnames, compiled.symbolic.parameters, strict=True))[name]
+        for idx, rows in system.guards.items():
+            if any(sym in e.free_symbols for e in rows.exprs):
+                raise ReachError(f"input {name!r} appears in the guard of transition "
+                                 f"{compiled.transitions[idx].name!r}; inputs may appear in "
+                                 "flows only")
+
+    names = compiled.state_names
+    n = len(names)
+    if initial is None:
+        initial = {}
+    if isinstance(initial, Box | Zonotope | Polytope):
+        X0 = as_zonotope(initial)
+        if X0.dim != n:
+            raise ReachError(f"initial set has dimension {X0.dim}; the model has {n} states "
+                             f"({', '.join(names)})")
+    elif isinstance(initial, Mapping):
+        x0 = compiled.state_vector(dict(sc.initial) if sc else {})
+        lo, hi = x0.copy(), x0.copy()
+        for name, value in initial.items():
+            _known(name, names, "state")
+            i = names.index(name)
+            lo[i], hi[i] = _interval(value, f"initial[{name!r}]")
+        X0 = Box(lo, hi).to_zonotope()
+    else:
+        raise ReachError(f"initial must be a mapping or a Box/Zonotope/Polytope (got "
+                         f"{type(initial).__name__})")
+
+    # extended initial set: states x uncertain parameters x time
+    extra_lo = [u[0] for u in uncertain.values()] + ([t0] if system.timed else [])
+    extra_hi = [u[1] for u in uncertain.values()] + ([t0] if system.timed else [])
+    if extra_lo:
+        E = Box(extra_lo, extra_hi).to_zonotope()
+        G = np.zeros((n + E.dim, X0.generators.shape[1] + E.generators.shape[1]))
+        G[:n, :X0.generators.shape[1]] = X0.generators
+        G[n:, X0.generators.shape[1]:] = E.generators
+        P0 = Zonotope(np.r_[X0.center, E.center], G)
+    else:
+        P0 = X0
+
+    opts = (options or ReachOptions()).updated(**option_overrides)
+    if opts.step is None:
+        opts = opts.updated(step=(t_end - t0) / 400.0)
+    return run_analysis(system, opts, mode, P0, t0, t_end, p)

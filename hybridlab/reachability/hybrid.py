@@ -1,0 +1,466 @@
+"""The hybrid layer: a waiting list of (mode, set, time interval, jumps).
+
+Each item is flowed with :class:`~hybridlab.reachability.nonlinear.FlowStepper`
+step by step. For every step set ``H`` (all states over the step's time
+window):
+
+* **Invariant**: a trajectory still in the mode satisfies the mode's invariant
+  (the simulator jumps or stops with ``INVARIANT_VIOLATED`` otherwise), so
+  ``H`` and the next start set are cut down to its linear rows
+  (:meth:`Zonotope.intersect_halfspace`); if some row is negative over all of
+  ``H``, the flowpipe ends.
+* **Guards** (urgent): a transition *may* fire when every guard row can be
+  non-negative over ``H``. Consecutive steps that may fire it form a cluster.
+  Each step set is cut down to the guard and the source invariant (LPs over the
+  zonotope, plus exact clipping by axis-aligned rows), the cluster's pieces are
+  joined into their interval hull (``clustering="box"``), the reset is applied
+  (exactly for affine resets, by the mean-value form with an interval Jacobian
+  otherwise) and the result, with the union of the cluster's time windows,
+  goes on the waiting list. The flow continues past a cluster because the guard
+  does not *necessarily* hold there: taking every "may" transition and
+  continuing the flow over-approximates the simulator's urgent semantics. The
+  flow stops after a step whose set lies strictly inside a guard (every
+  trajectory has jumped by then).
+* **Leaving a guard**: a guard row that is ``<= 0`` (to ``1e-12``) on the
+  initial set and whose time derivative is negative over each step set so far
+  cannot hold during those steps; this is how a ball that bounces off ``h = 0``
+  does not bounce again at once (the simulator's re-trigger and
+  touching-while-leaving rules).
+* **Scheduled transitions** need an exactly known time; the steps are cut at
+  the scheduled instants and the time-point set there is reset. With an
+  uncertain time the branch stops, incomplete, with the reason.
+* **Fixpoint**: an initial set inside an earlier initial set of the same mode
+  (time-invariant models) ends its branch; the earlier branch's sets then cover
+  it at every later time, so their time intervals are extended to ``t_end``.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+import time as _time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from hybridlab.reachability.interval import IntervalFunction
+from hybridlab.reachability.linear import StepError
+from hybridlab.reachability.nonlinear import FlowStepper
+from hybridlab.reachability.options import ReachOptions
+from hybridlab.reachability.result import ReachResult, ReachSet, _Context
+from hybridlab.reachability.sets import Box, Zonotope
+from hybridlab.reachability.system import Rows, System
+
+__all__ = ["Item", "run_analysis"]
+
+
+@dataclass(frozen=True, eq=False)
+class Item:
+    """A waiting-list entry: flow ``P`` in ``mode`` from a time in ``[t_lo, t_hi]``."""
+
+    id: int
+    parent: int | None
+    mode: str
+    P: Zonotope
+    t_lo: float
+    t_hi: float
+    jumps: int
+    #: scheduled instant this item starts at and the transitions already fired there
+    sched_done: tuple[float, frozenset[int]] | None = None
+
+
+def _is_box(Z: Zonotope) -> bool:
+    G = Z.generators
+    return bool(np.all(np.count_nonzero(G, axis=0) <= 1))
+
+
+def _contained(inner: Zonotope, outer: Zonotope) -> bool:
+    """A sufficient test for ``inner ⊆ outer``."""
+    ib, ob = inner.bounds(), outer.bounds()
+    if np.any(ib[:, 0] < ob[:, 0]) or np.any(ib[:, 1] > ob[:, 1]):
+        return False
+    if _is_box(outer):
+        return True
+    H = outer.halfspaces()
+    if H is None:
+        return False
+    A, b = H
+    return all(inner.support(a) <= bi for a, bi in zip(A, b, strict=True))
+
+
+def _within(Z: Zonotope | None, rows: Rows) -> Zonotope | None:
+    """``Z`` cut down to the linear rows ``a z + b >= 0`` (an over-approximating zonotope).
+
+    Sound for a mode's invariant: a trajectory still in the mode satisfies it."""
+    if Z is None:
+        return None
+    for i in np.flatnonzero(rows.linear):
+        Z = Z.intersect_halfspace(-rows.a[i], rows.b[i])
+        if Z is None:
+            return None
+    return Z
+
+
+def _clip_axis(box: np.ndarray, rows: Rows) -> np.ndarray | None:
+    """Intersect a box with the axis-aligned linear rows ``a_i z_j + b >= 0``, exactly."""
+    box = box.copy()
+    for i in np.flatnonzero(rows.linear):
+        nz = np.flatnonzero(rows.a[i])
+        if nz.size != 1:
+            continue
+        j = int(nz[0])
+        a, b = rows.a[i, j], rows.b[i]
+        bound = -b / a  # exact when b == 0; otherwise rounded outward below
+        if a > 0:  # z_j >= -b / a
+            box[j, 0] = max(box[j, 0], float(np.nextafter(bound, -np.inf)) if b else 0.0)
+        else:      # z_j <= -b / a
+            box[j, 1] = min(box[j, 1], float(np.nextafter(bound, np.inf)) if b else 0.0)
+        if box[j, 0] > box[j, 1]:
+            return None
+    return box
+
+
+class _Analysis:
+    def __init__(self, system: System, options: ReachOptions, t_start: float, t_end: float,
+                 p: np.ndarray) -> None:
+        self.system = system
+        self.options = options
+        self.t_start = t_start
+        self.t_end = t_end
+        self.step = float(options.step)
+        self.compiled = system.compiled
+        self.steppers: dict[str, FlowStepper] = {}
+        self.records: list[tuple[int, ReachSet]] = []
+        self.reasons: list[str] = []
+        self.items: dict[int, Item] = {}
+        self.seen: dict[str, list[Item]] = {}
+        self.fixpoints: list[tuple[int, float]] = []
+        self.open_branches = 0  # branches ended by t_end (not by a fixpoint or dying)
+        self.next_id = 0
+        self.queue: list[tuple[float, int, Item]] = []
+        self.lie: dict[tuple[str, int], IntervalFunction] = {}
+        self.schedules = {tr.index: tr.period_and_phase(p) for tr in self.compiled.transitions
+                          if tr.scheduled}
+        self.use_fixpoint = (options.fixpoint and not system.timed
+                             and not any(v is not None for v in self.schedules.values()))
+        self.context = _Context(
+            namespace=self.compiled.symbolic.namespace(), zsyms=system.zsyms,
+            values=system.values,
+            inputs={s: system.inputs[str(s)] for s in
+                    (next(iter(system.modes.values())).usyms[:len(system.inputs)]
+                     if system.modes else ())},
+            t_index=system.time_index)
+        self.n = system.n_states
+
+    # ----- waiting list -------------------------------------------------------------------
+    def push(self, parent: int | None, mode: str, P: Zonotope, t_lo: float, t_hi: float,
+             jumps: int, sched_done: tuple[float, frozenset[int]] | None = None) -> None:
+        if t_lo > self.t_end:
+            return
+        if jumps > self.options.max_jumps:
+            self._reason(f"max_jumps={self.options.max_jumps} reached: a branch entering "
+                         f"mode {mode!r} at t in [{t_lo:.6g}, {t_hi:.6g}] was not followed")
+            return
+        inv = self.system.modes[mode].invariants.range(P)
+        if np.any(inv[:, 1] < 0):
+            return  # entered outside the target's invariant: the simulator stops there
+        item = Item(self.next_id, parent, mode, P, t_lo, t_hi, jumps, sched_done)
+        self.next_id += 1
+        self.items[item.id] = item
+        if self.use_fixpoint:
+            for old in self.seen.get(mode, []):
+                if _contained(P, old.P):
+                    self.fixpoints.append((old.id, min(0.0, t_lo - old.t_lo)))
+                    return
+            self.seen.setdefault(mode, []).append(item)
+        heapq.heappush(self.queue, (t_lo, item.id, item))
+
+    def _reason(self, text: str) -> None:
+        if text not in self.reasons:
+            self.reasons.append(text)
+
+    def stepper(self, mode: str) -> FlowStepper:
+        if mode not in self.steppers:
+            self.steppers[mode] = FlowStepper(self.system, mode, self.options)
+        return self.steppers[mode]
+
+    def record(self, item: Item, H: Zonotope, t0: float, t1: float) -> None:
+        full = H
+        box = H.bounds()
+        rows = self.system.modes[item.mode].invariants
+        for i in np.flatnonzero(rows.linear):  # exact hull of H within the invariant
+            cut = H.bounds_in_slab(rows.a[i], -rows.b[i], np.inf)
+            if cut is not None:
+                box = np.column_stack([np.maximum(box[:, 0], cut[:, 0]),
+                                       np.minimum(box[:, 1], cut[:, 1])])
+        rs = ReachSet(mode=item.mode, t=(float(np.nextafter(t0, -np.inf)),
+                                         float(np.nextafter(min(t1, self.t_end), np.inf))),
+                      jumps=item.jumps, set=full.project(range(self.n)), _full=full,
+                      _context=self.context, _box=box[:self.n])
+        self.records.append((item.id, rs))
+        if len(self.records) > self.options.max_sets:
+            raise _Budget()
+
+    # ----- one item -----------------------------------------------------------------------
+    def flow(self, item: Item) -> None:
+        system = self.system
+        mode = system.modes[item.mode]
+        cmode = self.compiled.modes[item.mode]
+        stepper = self.stepper(item.mode)
+        stepper.reset()
+        guarded = [tr for tr in cmode.outgoing if not tr.scheduled]
+        scheduled = [tr for tr in cmode.outgoing
+                     if tr.scheduled and self.schedules.get(tr.index) is not None]
+        exact_time = item.t_lo == item.t_hi
+        if scheduled and not exact_time:
+            names = ", ".join(tr.name for tr in scheduled)
+            self._reason(f"mode {item.mode!r} is entered at an uncertain time "
+                         f"[{item.t_lo:.6g}, {item.t_hi:.6g}] and has scheduled transitions "
+                         f"({names}); that branch was not followed")
+            return
+        # guard rows that the flow leaves from the initial set (see the module docstring)
+        leaving: dict[int, set[int]] = {}
+        scale = 1.0 + float(np.max(np.abs(item.P.bounds())))
+        for tr in guarded:
+            rows = system.guards[tr.index]
+            rng = rows.range(item.P)
+            leaving[tr.index] = {i for i in range(rows.size) if rng[i, 1] <= 1e-12 * scale}
+        clusters: dict[int, list[tuple[Zonotope, float, float]]] = {tr.index: []
+                                                                     for tr in guarded}
+        P = item.P
+        rel = 0.0
+        now = item.t_lo  # exact current time (only meaningful when exact_time)
+        done_at = item.sched_done
+        while True:
+            start_lo = item.t_lo + rel if not exact_time else now
+            if scheduled:
+                instant, due = self._next_scheduled(scheduled, now, done_at)
+                if instant == now and due:
+                    if self._fire_scheduled(item, due, P, now):
+                        break  # a transition without guard fired: no flow in this mode
+                    done_at = (now, frozenset(tr.index for tr in due))
+                    continue
+            if start_lo >= self.t_end:
+                self.open_branches += 1
+                if rel == 0.0:  # entered at t_end: the set itself is all there is
+                    self.record(item, P, item.t_lo, item.t_hi)
+                break
+            r = min(self.step, self.t_end - start_lo)
+            if scheduled and instant < now + r:
+                r = instant - now
+            if r <= 0:
+                r = self.step
+            try:
+                P_next, H = stepper.step(P, r)
+            except StepError as exc:
+                self._reason(f"mode {item.mode!r} at t = {start_lo:.6g}: {exc}")
+                break
+            t0 = start_lo
+            t1 = (now + r) if exact_time else item.t_hi + rel + r
+            H = _within(H.reduce(self.options.order), mode.invariants)
+            P_next = _within(P_next.reduce(self.options.order), mode.invariants)
+            if H is None:
+                break  # every trajectory has left the mode
+            inv = mode.invariants.range(H)
+            if inv.size and np.any(inv[:, 1] < 0):
+                break
+            self.record(item, H, t0, t1)
+            stop = False
+            for tr in guarded:
+                rows = system.guards[tr.index]
+                rng = rows.range(H)
+                may = bool(np.all(rng[:, 1] >= 0))
+                if may and leaving[tr.index]:
+                    lie = self._lie(item.mode, tr.index)
+                    u_lo, u_hi = system.input_box(item.mode)
+                    box = H.bounds()
+                    lo, hi = lie(np.r_[box[:, 0], u_lo], np.r_[box[:, 1], u_hi])
+                    still = {i for i in leaving[tr.index] if hi[i] < 0}
+                    leaving[tr.index] = still
+                    if still:
+                        may = False
+                elif leaving[tr.index]:
+                    leaving[tr.index] = set()
+                if may:
+                    clusters[tr.index].append((H, t0, t1))
+                    if rows.size == 0 or bool(np.all(rng[:, 0] > 0)):
+                        stop = True
+                elif clusters[tr.index]:
+                    self._jump(item, tr, clusters[tr.index])
+                    clusters[tr.index] = []
+            if stop or P_next is None:
+                break
+            P = P_next
+            rel += r
+            now = now + r
+            if scheduled and abs(now - instant) <= 1e-12 * max(1.0, abs(instant)):
+                now = instant
+        for tr in guarded:
+            if clusters[tr.index]:
+                self._jump(item, tr, clusters[tr.index])
+
+    def _lie(self, mode: str, index: int) -> IntervalFunction:
+        key = (mode, index)
+        if key not in self.lie:
+            self.lie[key] = self.system.modes[mode].lie(self.system.guards[index])
+        return self.lie[key]
+
+    # ----- scheduled transitions ------------------------------------------------------------
+    def _next_scheduled(self, scheduled, now, done_at):
+        best, due = math.inf, []
+        for tr in scheduled:
+            period, phase = self.schedules[tr.index]
+            k = max(math.ceil((now - phase) / period - 1e-9), 0)
+            s = phase + k * period
+            if done_at is not None and abs(done_at[0] - s) <= 1e-12 * max(1.0, abs(s)) \
+                    and tr.index in done_at[1]:
+                s = phase + (k + 1) * period
+            if abs(s - now) <= 1e-9 * period:
+                s = now
+            if s < best - 1e-12 * max(1.0, abs(s)):
+                best, due = s, [tr]
+            elif abs(s - best) <= 1e-12 * max(1.0, abs(s)):
+                due.append(tr)
+        return best, sorted(due, key=lambda tr: tr.order_key)
+
+    def _fire_scheduled(self, item: Item, due, P: Zonotope, now: float) -> bool:
+        """Fire the scheduled transitions due now from the time-point set ``P``.
+
+        Returns whether one of them must fire (so the flow in this mode ends)."""
+        fired = frozenset(tr.index for tr in due)
+        previous = item.sched_done[1] if item.sched_done and item.sched_done[0] == now else \
+            frozenset()
+        for tr in due:
+            rows = self.system.guards[tr.index]
+            rng = rows.range(P)
+            if rows.size and np.any(rng[:, 1] < 0):
+                continue
+            piece = self._cut(P, rows, self.system.modes[item.mode].invariants)
+            if piece is None:
+                continue
+            post = self._reset(tr.index, piece)
+            self.push(item.id, tr.target, post, now, now, item.jumps + 1,
+                      (now, previous | fired))
+            if rows.size == 0 or np.all(rng[:, 0] > 0):
+                return True
+        return False
+
+    # ----- jumps ----------------------------------------------------------------------------
+    def _cut(self, Z: Zonotope, guard: Rows, invariant: Rows) -> Zonotope | None:
+        """``Z`` intersected with the guard and invariant rows, over-approximated by a box
+        (or ``Z`` itself when nothing cuts it)."""
+        lin_a = [-guard.a[guard.linear], -invariant.a[invariant.linear]]
+        lin_b = [guard.b[guard.linear], invariant.b[invariant.linear]]
+        A, b = np.vstack(lin_a), np.concatenate(lin_b)
+        box = Z.bounds()
+        if A.shape[0] and self.options.intersection == "lp":
+            box = Z.bounds_within(A, b)
+            if box is None:
+                return None
+        for rows in (guard, invariant):
+            box = _clip_axis(box, rows) if box is not None else None
+        if box is None:
+            return None
+        return Box(box[:, 0], box[:, 1]).to_zonotope()
+
+    def _reset(self, index: int, Z: Zonotope) -> Zonotope:
+        reset = self.system.resets[index]
+        M = reset.matrix
+        if M is not None:
+            return Z.linear_map(M, reset.offset)
+        box = Z.bounds()
+        z_star = Z.center
+        value = reset.value(z_star)
+        lo, hi = reset.jacobian_interval(box[:, 0], box[:, 1])
+        nz = Z.dim
+        J_lo, J_hi = lo.reshape(nz, nz), hi.reshape(nz, nz)
+        J_mid, J_rad = 0.5 * (J_lo + J_hi), 0.5 * (J_hi - J_lo)
+        if not (np.all(np.isfinite(J_mid)) and np.all(np.isfinite(value))):
+            raise StepError(f"reset of transition {self.compiled.transitions[index].name!r} "
+                            "is unbounded over the set")
+        dev = np.maximum(np.abs(box[:, 0] - z_star), np.abs(box[:, 1] - z_star))
+        rad = J_rad @ dev + 1e-12 * (np.abs(value) + np.abs(J_mid) @ dev) + 1e-300
+        G = np.hstack([J_mid @ Z.generators, np.diag(rad)])
+        return Zonotope(value, G)
+
+    def _jump(self, item: Item, tr, cluster: list[tuple[Zonotope, float, float]]) -> None:
+        guard = self.system.guards[tr.index]
+        invariant = self.system.modes[item.mode].invariants
+        groups = [cluster] if self.options.clustering == "box" else [[c] for c in cluster]
+        for group in groups:
+            boxes, t_lo, t_hi = [], math.inf, -math.inf
+            for H, t0, t1 in group:
+                piece = self._cut(H, guard, invariant)
+                if piece is None:
+                    continue
+                boxes.append(piece.bounds())
+                t_lo, t_hi = min(t_lo, t0), max(t_hi, t1)
+            if not boxes:
+                continue
+            stack = np.stack(boxes)
+            box = np.column_stack([stack[:, :, 0].min(axis=0), stack[:, :, 1].max(axis=0)])
+            pre = Box(box[:, 0], box[:, 1]).to_zonotope()
+            try:
+                post = self._reset(tr.index, pre)
+            except StepError as exc:
+                self._reason(str(exc))
+                continue
+            self.push(item.id, tr.target, post, t_lo, min(t_hi, self.t_end), item.jumps + 1)
+
+    # ----- driver ---------------------------------------------------------------------------
+    def run(self) -> None:
+        while self.queue:
+            _, _, item = heapq.heappop(self.queue)
+            self.flow(item)
+
+    def finish(self, started: float) -> ReachResult:
+        records = self.records
+        if self.fixpoints:
+            children: dict[int, list[int]] = {}
+            for it in self.items.values():
+                if it.parent is not None:
+                    children.setdefault(it.parent, []).append(it.id)
+            shift: dict[int, float] = {}
+            for root, lo_shift in self.fixpoints:
+                stack = [root]
+                while stack:
+                    i = stack.pop()
+                    shift[i] = min(shift.get(i, 0.0), lo_shift)
+                    stack.extend(children.get(i, []))
+            records = [(i, replace(rs, t=(rs.t[0] + shift[i], self.t_end)) if i in shift else rs)
+                       for i, rs in records]
+        sets = tuple(rs for _, rs in records)
+        names = self.compiled.state_names
+        if sets:
+            allb = np.stack([s.bounds() for s in sets])
+            lo, hi = allb[:, :, 0].min(axis=0), allb[:, :, 1].max(axis=0)
+            bounds = {n: (float(lo[i]), float(hi[i])) for i, n in enumerate(names)}
+        else:
+            bounds = {}
+        complete = not self.reasons
+        return ReachResult(
+            sets=sets, bounds=bounds, reachable_modes=frozenset(s.mode for s in sets),
+            complete=complete, incomplete_reasons=tuple(self.reasons),
+            fixpoint=complete and bool(self.fixpoints) and self.open_branches == 0,
+            time_s=_time.perf_counter() - started, state_names=names,
+            t_span=(self.t_start, self.t_end), options=self.options)
+
+
+class _Budget(Exception):
+    pass
+
+
+def run_analysis(system: System, options: ReachOptions, mode: str, P0: Zonotope,
+                 t_start: float, t_end: float, p: np.ndarray) -> ReachResult:
+    """Run the analysis from one initial item (used by :func:`hybridlab.reach`)."""
+    started = _time.perf_counter()
+    analysis = _Analysis(system, options, t_start, t_end, p)
+    analysis.push(None, mode, P0, t_start, t_start, 0)
+    if not analysis.queue and not analysis.items:
+        analysis._reason(f"the initial set lies outside the invariant of mode {mode!r}")
+    try:
+        analysis.run()
+    except _Budget:
+        analysis._reason(f"max_sets={options.max_sets} flowpipe sets computed; the analysis "
+                         f"stopped early (raise max_sets or the step)")
+    return analysis.finish(started)

@@ -1,0 +1,422 @@
+"""Interval arithmetic with outward rounding, and sympy expressions evaluated over boxes.
+
+Every operation rounds its result outward by one unit in the last place
+(``numpy.nextafter``), so the exact real result of the operation on the exact
+operands always lies inside the computed interval. The elementary functions
+(``exp``, ``sin``, ...) come from numpy, which is accurate to about one ulp
+but not guaranteed correctly rounded; their results are widened by four ulps
+plus ``1e-300`` to cover that.
+
+:class:`IntervalFunction` compiles sympy expressions (everything the model
+grammar allows: ``+ - * / **``, ``sin cos tan asin acos atan atan2 sinh cosh
+tanh exp log sqrt abs sign min max``, ``clip`` through min/max) once into a
+tree of closures and evaluates them over a box.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import sympy as sp
+
+from hybridlab.errors import HybridlabError
+
+__all__ = ["Interval", "IntervalError", "IntervalFunction", "interval_eval"]
+
+_INF = math.inf
+
+
+class IntervalError(HybridlabError, ValueError):
+    """An expression cannot be enclosed by interval arithmetic (unsupported function)."""
+
+
+def _down(x: float) -> float:
+    return float(np.nextafter(x, -_INF)) if math.isfinite(x) else x
+
+
+def _up(x: float) -> float:
+    return float(np.nextafter(x, _INF)) if math.isfinite(x) else x
+
+
+def _widen(lo: float, hi: float, ulps: int = 4) -> tuple[float, float]:
+    """Widen a numpy elementary-function result to cover its (unguaranteed) rounding."""
+    for _ in range(ulps):
+        lo, hi = _down(lo), _up(hi)
+    return lo - 1e-300, hi + 1e-300
+
+
+@dataclass(frozen=True, slots=True)
+class Interval:
+    """A closed interval ``[lo, hi]`` of reals; ``lo`` may be ``-inf``, ``hi`` ``inf``.
+
+    Examples
+    --------
+    >>> a = Interval(1.0, 2.0)
+    >>> b = a * Interval(-1.0, 3.0) + 1
+    >>> b.lo <= -1.0 and b.hi >= 7.0
+    True
+    >>> (Interval(-1.0, 2.0) ** 2).lo
+    0.0
+    """
+
+    lo: float
+    hi: float
+
+    def __post_init__(self) -> None:
+        if not self.lo <= self.hi:  # also catches NaN
+            raise IntervalError(f"interval bounds must satisfy lo <= hi (got [{self.lo}, "
+                                f"{self.hi}])")
+
+    # ----- construction -------------------------------------------------------------------
+    @staticmethod
+    def point(x: float) -> Interval:
+        """The degenerate interval ``[x, x]``."""
+        return Interval(float(x), float(x))
+
+    @staticmethod
+    def of(x: Interval | float) -> Interval:
+        """``x`` as an interval."""
+        return x if isinstance(x, Interval) else Interval.point(float(x))
+
+    @staticmethod
+    def entire() -> Interval:
+        """The whole real line."""
+        return Interval(-_INF, _INF)
+
+    # ----- properties -----------------------------------------------------------------------
+    @property
+    def mid(self) -> float:
+        """The midpoint (finite intervals only)."""
+        return 0.5 * (self.lo + self.hi)
+
+    @property
+    def rad(self) -> float:
+        """Half the width, rounded up."""
+        return _up(0.5 * (self.hi - self.lo))
+
+    @property
+    def mag(self) -> float:
+        """``max |x|`` over the interval."""
+        return max(abs(self.lo), abs(self.hi))
+
+    def contains(self, x: float) -> bool:
+        """Whether ``x`` lies in the interval."""
+        return self.lo <= x <= self.hi
+
+    def hull(self, other: Interval) -> Interval:
+        """The smallest interval containing both."""
+        return Interval(min(self.lo, other.lo), max(self.hi, other.hi))
+
+    # ----- arithmetic -------------------------------------------------------------------------
+    def __add__(self, other: Interval | float) -> Interval:
+        o = Interval.of(other)
+        return Interval(_down(self.lo + o.lo), _up(self.hi + o.hi))
+
+    __radd__ = __add__
+
+    def __neg__(self) -> Interval:
+        return Interval(-self.hi, -self.lo)
+
+    def __sub__(self, other: Interval | float) -> Interval:
+        return self + (-Interval.of(other))
+
+    def __rsub__(self, other: Interval | float) -> Interval:
+        return Interval.of(other) + (-self)
+
+    def __mul__(self, other: Interval | float) -> Interval:
+        o = Interval.of(other)
+        products = []
+        for a in (self.lo, self.hi):
+            for b in (o.lo, o.hi):
+                # 0 * inf is 0 here: the interval end is only a bound, never attained
+                products.append(0.0 if a == 0.0 or b == 0.0 else a * b)
+        return Interval(_down(min(products)), _up(max(products)))
+
+    __rmul__ = __mul__
+
+    def reciprocal(self) -> Interval:
+        """``1 / x``; the whole line when the interval contains zero."""
+        if self.lo <= 0.0 <= self.hi:
+            return Interval.entire()
+        return Interval(_down(1.0 / self.hi), _up(1.0 / self.lo))
+
+    def __truediv__(self, other: Interval | float) -> Interval:
+        return self * Interval.of(other).reciprocal()
+
+    def __rtruediv__(self, other: Interval | float) -> Interval:
+        return Interval.of(other) * self.reciprocal()
+
+    def __pow__(self, exponent: Interval | float) -> Interval:
+        if isinstance(exponent, Interval):
+            if exponent.lo == exponent.hi:
+                return self ** exponent.lo
+            return _exp(exponent * _log(self))
+        e = float(exponent)
+        if e == int(e) and abs(e) <= 1e6:
+            return self._ipow(int(e))
+        if e == 0.5:
+            return _sqrt(self)
+        return _exp(Interval.point(e) * _log(self))
+
+    def _ipow(self, k: int) -> Interval:
+        if k == 0:
+            return Interval(1.0, 1.0)
+        if k < 0:
+            return self._ipow(-k).reciprocal()
+        if k == 1:
+            return self
+        if k % 2 == 0:  # even: a function of |x|, smallest at the point nearest zero
+            a = 0.0 if self.lo <= 0.0 <= self.hi else min(abs(self.lo), abs(self.hi))
+            lo, hi = a, self.mag
+        else:  # odd: increasing
+            lo, hi = self.lo, self.hi
+        with np.errstate(over="ignore"):
+            plo, phi = float(np.power(lo, k)), float(np.power(hi, k))
+        rel = (k + 2) * 2.3e-16  # a float power is within about k ulps of the exact one
+        plo, phi = plo - abs(plo) * rel - 1e-300, phi + abs(phi) * rel + 1e-300
+        if k % 2 == 0:
+            plo = max(plo, 0.0)
+        return Interval(plo, phi)
+
+
+def _monotone(f: Callable[[float], float], x: Interval, increasing: bool = True) -> Interval:
+    with np.errstate(all="ignore"):
+        a, b = float(f(x.lo)), float(f(x.hi))
+    lo, hi = (a, b) if increasing else (b, a)
+    return Interval(*_widen(lo, hi))
+
+
+def _exp(x: Interval) -> Interval:
+    r = _monotone(np.exp, x)
+    return Interval(max(r.lo, 0.0), r.hi)
+
+
+def _log(x: Interval) -> Interval:
+    if x.hi <= 0.0:
+        raise IntervalError(f"log of a non-positive interval [{x.lo}, {x.hi}]")
+    lo = -_INF if x.lo <= 0.0 else x.lo
+    return _monotone(lambda v: np.log(v) if v > 0 else -_INF, Interval(lo, x.hi))
+
+
+def _sqrt(x: Interval) -> Interval:
+    if x.hi < 0.0:
+        raise IntervalError(f"sqrt of a negative interval [{x.lo}, {x.hi}]")
+    r = _monotone(np.sqrt, Interval(max(x.lo, 0.0), x.hi))
+    return Interval(max(r.lo, 0.0), r.hi)
+
+
+def _contains_point_of_lattice(x: Interval, offset: float, period: float) -> bool:
+    """Whether ``[lo, hi]`` (slightly widened) contains some ``offset + k * period``."""
+    slack = 1e-12 * max(1.0, x.mag)
+    k = math.ceil((x.lo - slack - offset) / period)
+    return offset + k * period <= x.hi + slack
+
+
+def _sin(x: Interval) -> Interval:
+    if not (math.isfinite(x.lo) and math.isfinite(x.hi)) or x.hi - x.lo >= 2 * math.pi:
+        return Interval(-1.0, 1.0)
+    a, b = math.sin(x.lo), math.sin(x.hi)
+    lo, hi = _widen(min(a, b), max(a, b))
+    if _contains_point_of_lattice(x, math.pi / 2, 2 * math.pi):
+        hi = 1.0
+    if _contains_point_of_lattice(x, -math.pi / 2, 2 * math.pi):
+        lo = -1.0
+    return Interval(max(lo, -1.0), min(hi, 1.0))
+
+
+def _cos(x: Interval) -> Interval:
+    return _sin(x + Interval(_down(math.pi / 2), _up(math.pi / 2)))
+
+
+def _tan(x: Interval) -> Interval:
+    if (not (math.isfinite(x.lo) and math.isfinite(x.hi)) or x.hi - x.lo >= math.pi
+            or _contains_point_of_lattice(x, math.pi / 2, math.pi)):
+        return Interval.entire()
+    return _monotone(np.tan, x)
+
+
+def _clamped(f: Callable[[float], float], lo: float, hi: float, increasing: bool = True):
+    def apply(x: Interval) -> Interval:
+        if x.hi < lo or x.lo > hi:
+            raise IntervalError(f"argument [{x.lo}, {x.hi}] outside the domain [{lo}, {hi}]")
+        return _monotone(f, Interval(max(x.lo, lo), min(x.hi, hi)), increasing)
+    return apply
+
+
+def _cosh(x: Interval) -> Interval:
+    hi = _monotone(np.cosh, Interval(x.mag, x.mag)).hi
+    lo = 1.0 if x.lo <= 0.0 <= x.hi else _monotone(np.cosh, Interval(*(2 * [min(
+        abs(x.lo), abs(x.hi))]))).lo
+    return Interval(max(lo, 1.0), hi)
+
+
+def _abs(x: Interval) -> Interval:
+    if x.lo >= 0:
+        return x
+    if x.hi <= 0:
+        return -x
+    return Interval(0.0, x.mag)
+
+
+def _sign(x: Interval) -> Interval:
+    lo = -1.0 if x.lo < 0 else (0.0 if x.lo == 0 else 1.0)
+    hi = 1.0 if x.hi > 0 else (0.0 if x.hi == 0 else -1.0)
+    return Interval(lo, hi)
+
+
+def _heaviside(x: Interval) -> Interval:
+    return Interval(0.0 if x.lo <= 0 else 1.0, 1.0 if x.hi >= 0 else 0.0)
+
+
+def _min(*xs: Interval) -> Interval:
+    return Interval(min(x.lo for x in xs), min(x.hi for x in xs))
+
+
+def _max(*xs: Interval) -> Interval:
+    return Interval(max(x.lo for x in xs), max(x.hi for x in xs))
+
+
+def _atan2(y: Interval, x: Interval) -> Interval:
+    if x.lo > 0:  # right half-plane: atan(y / x) is exact and continuous there
+        return _monotone(np.arctan, y / x)
+    if y.lo > 0 or y.hi < 0:  # upper or lower half-plane: pi/2 - atan(x / y)
+        r = Interval(_down(math.pi / 2), _up(math.pi / 2)) - _monotone(np.arctan, x / y)
+        return r if y.lo > 0 else r - Interval(_down(math.pi), _up(math.pi))
+    return Interval(_down(-math.pi), _up(math.pi))
+
+
+_UNARY: Mapping[type, Callable[[Interval], Interval]] = {
+    sp.exp: _exp,
+    sp.log: _log,
+    sp.sin: _sin,
+    sp.cos: _cos,
+    sp.tan: _tan,
+    sp.asin: _clamped(np.arcsin, -1.0, 1.0),
+    sp.acos: _clamped(np.arccos, -1.0, 1.0, increasing=False),
+    sp.atan: lambda x: _monotone(np.arctan, x),
+    sp.sinh: lambda x: _monotone(np.sinh, x),
+    sp.cosh: _cosh,
+    sp.tanh: lambda x: _monotone(np.tanh, x),
+    sp.Abs: _abs,
+    sp.sign: _sign,
+    sp.Heaviside: _heaviside,
+}
+
+Node = Callable[[Sequence[Interval]], Interval]
+
+
+def _constant(value: sp.Expr) -> Interval:
+    if value.is_Integer or (value.is_Float and float(value) == value):
+        v = float(value)
+        if v == int(value):
+            return Interval.point(v)
+    v = float(sp.N(value, 30))
+    return Interval(_down(v), _up(v))
+
+
+def _compile(expr: sp.Expr, index: Mapping[sp.Symbol, int]) -> Node:
+    if expr.is_Symbol:
+        if expr not in index:
+            raise IntervalError(f"no interval given for symbol {expr}")
+        i = index[expr]
+        return lambda env: env[i]
+    if expr.is_Number or expr.is_NumberSymbol:
+        if not expr.is_finite:
+            raise IntervalError(f"non-finite constant {expr}")
+        c = _constant(expr)
+        return lambda env: c
+    args = [_compile(a, index) for a in expr.args]
+    if isinstance(expr, sp.Add):
+        def add(env: Sequence[Interval]) -> Interval:
+            total = args[0](env)
+            for a in args[1:]:
+                total = total + a(env)
+            return total
+        return add
+    if isinstance(expr, sp.Mul):
+        def mul(env: Sequence[Interval]) -> Interval:
+            total = args[0](env)
+            for a in args[1:]:
+                total = total * a(env)
+            return total
+        return mul
+    if isinstance(expr, sp.Pow):
+        base, exponent = args
+        e = expr.args[1]
+        if e.is_Integer:
+            k = int(e)
+            return lambda env: base(env)._ipow(k)
+        if e == sp.Rational(1, 2):
+            return lambda env: _sqrt(base(env))
+        if e == sp.Rational(-1, 2):
+            return lambda env: _sqrt(base(env)).reciprocal()
+        return lambda env: base(env) ** exponent(env)
+    if isinstance(expr, sp.Min):
+        return lambda env: _min(*(a(env) for a in args))
+    if isinstance(expr, sp.Max):
+        return lambda env: _max(*(a(env) for a in args))
+    if isinstance(expr, sp.atan2):
+        return lambda env: _atan2(args[0](env), args[1](env))
+    for kind, f in _UNARY.items():
+        if isinstance(expr, kind):
+            arg = args[0]
+            return lambda env, f=f: f(arg(env))
+    raise IntervalError(f"interval arithmetic does not support {type(expr).__name__} in {expr}")
+
+
+class IntervalFunction:
+    """Sympy expressions compiled for evaluation over boxes.
+
+    Parameters
+    ----------
+    exprs : sequence of sympy.Expr
+        The expressions.
+    symbols : sequence of sympy.Symbol
+        Their arguments, in the order of the box's rows.
+
+    Examples
+    --------
+    >>> x, y = sp.symbols("x y", real=True)
+    >>> f = IntervalFunction([x * y + sp.sin(x), sp.Abs(y)], [x, y])
+    >>> lo, hi = f(np.array([0.0, -1.0]), np.array([1.0, 2.0]))
+    >>> bool(lo[0] <= -1.0 and hi[0] >= 2.0 + np.sin(1.0)), float(lo[1]), float(hi[1])
+    (True, 0.0, 2.0)
+    """
+
+    def __init__(self, exprs: Sequence[sp.Expr], symbols: Sequence[sp.Symbol]) -> None:
+        self.exprs = tuple(sp.sympify(e) for e in exprs)
+        index = {s: i for i, s in enumerate(symbols)}
+        self._nodes = [_compile(e, index) for e in self.exprs]
+
+    def intervals(self, env: Sequence[Interval]) -> list[Interval]:
+        """Evaluate on a list of argument intervals."""
+        return [node(env) for node in self._nodes]
+
+    def __call__(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Enclosures ``(lo, hi)`` of every expression over the box ``[lo, hi]``."""
+        env = [Interval(float(a), float(b)) for a, b in zip(lo, hi, strict=True)]
+        out = self.intervals(env)
+        return (np.array([r.lo for r in out], dtype=float),
+                np.array([r.hi for r in out], dtype=float))
+
+
+def interval_eval(expr: sp.Expr, box: Mapping[sp.Symbol, tuple[float, float]]) -> Interval:
+    """Enclose one sympy expression over a box given per symbol.
+
+    Examples
+    --------
+    >>> x = sp.Symbol("x", real=True)
+    >>> r = interval_eval(x**2 - 2*x, {x: (0.0, 3.0)})
+    >>> r.lo <= -1.0 and r.hi >= 3.0
+    True
+    """
+    symbols = sorted(sp.sympify(expr).free_symbols, key=str)
+    missing = [s for s in symbols if s not in box]
+    if missing:
+        raise IntervalError(f"no interval given for symbol {missing[0]}")
+    f = IntervalFunction([expr], symbols)
+    env = [Interval(float(box[s][0]), float(box[s][1])) for s in symbols]
+    return f.intervals(env)[0]

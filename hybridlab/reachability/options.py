@@ -1,0 +1,102 @@
+"""Settings of :func:`hybridlab.reach`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields, replace
+from typing import Any
+
+__all__ = ["ReachOptions"]
+
+_CLUSTERING = ("box", "none")
+
+
+@dataclass(frozen=True)
+class ReachOptions:
+    """Knobs of the reachability analysis; see ``docs/verification.md``.
+
+    Attributes
+    ----------
+    step : float or None
+        Time step of the flowpipes. Smaller is tighter (the dense-time bloating
+        and the linearisation remainder shrink with it) and slower (linear in
+        the number of steps). ``None``: the horizon divided by 400.
+    order : float
+        Zonotope order kept after each step (generators per dimension); excess
+        generators are boxed (Girard's method). Higher is tighter and slower.
+    taylor_terms : int
+        Terms of the matrix exponential's Taylor series; the remainder is
+        bounded soundly whatever the value, it only needs ``|A| * step`` below
+        ``(taylor_terms + 2) / 2``.
+    max_jumps : int
+        Longest run of jumps followed; a branch cut here makes the result
+        incomplete.
+    clustering : {"box", "none"}
+        ``"box"``: consecutive steps that hit the same guard are joined into
+        one post-jump set (their interval hull, after intersecting each with the
+        guard and the invariant). ``"none"``: one post-jump set per step that
+        hits the guard (tighter, more branches).
+    intersection : {"lp", "box"}
+        How a set that hits a guard is cut down to the guard and invariant:
+        ``"lp"``: exact interval hull of the zonotope intersected with the linear
+        guard and invariant rows (2 n LPs per hit, HiGHS); ``"box"``: clip the
+        interval hull with the axis-aligned rows only (no LP).
+    max_sets : int
+        Budget of flowpipe sets over all branches; exceeding it ends the
+        analysis as incomplete.
+    remainder_iterations : int
+        Attempts to find a linearisation remainder that encloses itself
+        (nonlinear modes).
+    fixpoint : bool
+        Stop a branch whose initial set lies inside an earlier initial set of
+        the same mode (time-invariant models only).
+    bloat : float
+        Relative enlargement of every computed set covering floating-point
+        rounding of the matrix products.
+
+    Examples
+    --------
+    >>> ReachOptions(step=0.01).updated(max_jumps=5).max_jumps
+    5
+    """
+
+    step: float | None = None
+    order: float = 20.0
+    taylor_terms: int = 10
+    max_jumps: int = 30
+    clustering: str = "box"
+    intersection: str = "lp"
+    max_sets: int = 200_000
+    remainder_iterations: int = 8
+    fixpoint: bool = True
+    bloat: float = 1e-12
+
+    def __post_init__(self) -> None:
+        if self.step is not None and not (float(self.step) > 0 and float(self.step) < 1e300):
+            raise ValueError(f"step must be a positive number (got {self.step!r})")
+        if not self.order >= 1:
+            raise ValueError(f"order must be at least 1 (got {self.order!r})")
+        if not (isinstance(self.taylor_terms, int) and self.taylor_terms >= 2):
+            raise ValueError(f"taylor_terms must be an integer >= 2 (got {self.taylor_terms!r})")
+        if not (isinstance(self.max_jumps, int) and self.max_jumps >= 0):
+            raise ValueError(f"max_jumps must be an integer >= 0 (got {self.max_jumps!r})")
+        if self.clustering not in _CLUSTERING:
+            raise ValueError(f"clustering must be one of {', '.join(_CLUSTERING)} "
+                             f"(got {self.clustering!r})")
+        if self.intersection not in ("lp", "box"):
+            raise ValueError(f"intersection must be 'lp' or 'box' (got {self.intersection!r})")
+        if not (isinstance(self.max_sets, int) and self.max_sets >= 1):
+            raise ValueError(f"max_sets must be a positive integer (got {self.max_sets!r})")
+        if not (isinstance(self.remainder_iterations, int) and self.remainder_iterations >= 1):
+            raise ValueError("remainder_iterations must be a positive integer "
+                             f"(got {self.remainder_iterations!r})")
+        if not 0 <= self.bloat < 1e-3:
+            raise ValueError(f"bloat must be in [0, 1e-3) (got {self.bloat!r})")
+
+    def updated(self, **changes: Any) -> ReachOptions:
+        """A copy with ``changes`` applied (unknown names are a ``TypeError``)."""
+        known = {f.name for f in fields(self)}
+        unknown = sorted(set(changes) - known)
+        if unknown:
+            raise TypeError(f"unknown reach option(s): {', '.join(unknown)}; expected one of: "
+                            f"{', '.join(sorted(known))}")
+        return replace(self, **changes)

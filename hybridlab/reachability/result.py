@@ -1,0 +1,243 @@
+"""Results of :func:`hybridlab.reach`: flowpipe sets and their summary."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from hybridlab.model.expressions import parse_expression
+from hybridlab.reachability.interval import Interval, IntervalFunction
+from hybridlab.reachability.options import ReachOptions
+from hybridlab.reachability.sets import Zonotope
+
+__all__ = ["ReachSet", "ReachResult"]
+
+
+@dataclass(frozen=True, eq=False)
+class _Context:
+    """What :meth:`ReachSet.bound` needs to read an expression."""
+
+    namespace: Mapping[str, sp.Expr]
+    zsyms: tuple[sp.Symbol, ...]
+    values: Mapping[sp.Symbol, float]
+    inputs: Mapping[sp.Symbol, tuple[float, float]]
+    t_index: int | None
+
+
+@dataclass(frozen=True, eq=False)
+class ReachSet:
+    """One flowpipe piece: every state reachable in ``mode`` at every time in ``t``.
+
+    Attributes
+    ----------
+    mode : str
+        The mode.
+    t : tuple of float
+        A time interval the set covers: every trajectory from the initial set
+        that is in ``mode`` (after ``jumps`` jumps) at a time in ``t`` is in
+        :attr:`set` at that time, in dense time.
+    jumps : int
+        Jumps along the branch that led here.
+    set : Zonotope
+        Over the model's states, in ``compiled.state_names`` order.
+    """
+
+    mode: str
+    t: tuple[float, float]
+    jumps: int
+    set: Zonotope
+    _full: Zonotope = field(repr=False)
+    _context: _Context = field(repr=False)
+    _box: np.ndarray | None = field(default=None, repr=False)
+
+    def bounds(self) -> np.ndarray:
+        """Bounds of the states, shape ``(n, 2)``: the interval hull of :attr:`set`
+        within the mode's linear invariant rows (exact, by a one-multiplier LP dual)."""
+        return self.set.bounds() if self._box is None else self._box.copy()
+
+    def bound(self, expr: str | sp.Expr) -> tuple[float, float]:
+        """A sound enclosure of ``expr`` over this set.
+
+        ``expr`` is a sympy expression in the model's state (and parameter)
+        symbols, or a text in the model's expression language. Exact (support
+        function) when it is linear in the states and uncertain parameters;
+        interval arithmetic over the set's interval hull otherwise. Uncertain
+        parameters range over their intervals, ``t`` over :attr:`t`.
+
+        Examples
+        --------
+        >>> import hybridlab
+        >>> result = hybridlab.reach("models/thermostat.toml", initial={"T": (19.0, 21.0)},
+        ...                          t_end=1.0, step=0.1)
+        >>> lo, hi = result.sets[0].bound("2*T + 1")
+        >>> bool(lo <= 39.0 and hi >= 43.0)
+        True
+        """
+        ctx = self._context
+        e = parse_expression(expr, ctx.namespace) if isinstance(expr, str) else sp.sympify(expr)
+        e = e.xreplace(dict(ctx.values))
+        t_sym = sp.Symbol("t", real=True)
+        zs = ctx.zsyms
+        free = e.free_symbols
+        unknown = free - set(zs) - set(ctx.inputs) - {t_sym}
+        if unknown:
+            raise ValueError(f"bound(): unknown symbol {sorted(map(str, unknown))[0]!r} in {e}")
+        linear = all(not sp.diff(e, z).free_symbols for z in zs) and not (
+            free & (set(ctx.inputs) | ({t_sym} if ctx.t_index is None else set())))
+        if linear:
+            a = np.array([float(sp.diff(e, z)) for z in zs])
+            b = float(e.xreplace(dict.fromkeys(zs, 0)))
+            hi = self._full.support(a) + b
+            lo = -self._full.support(-a) + b
+            slack = 1e-12 * (1.0 + abs(lo) + abs(hi))
+            return float(np.nextafter(lo - slack, -np.inf)), float(np.nextafter(hi + slack,
+                                                                                   np.inf))
+        box = self._full.bounds()
+        syms = list(zs) + list(ctx.inputs)
+        env = [Interval(float(lo), float(hi)) for lo, hi in box]
+        env += [Interval(*ctx.inputs[s]) for s in ctx.inputs]
+        if ctx.t_index is None and t_sym in free:
+            syms.append(t_sym)
+            env.append(Interval(*self.t))
+        r = IntervalFunction([e], syms).intervals(env)[0]
+        return r.lo, r.hi
+
+    def contains(self, x: Sequence[float] | np.ndarray, tol: float = 1e-9) -> np.ndarray:
+        """Whether state(s) ``x`` (rows, model state order) lie in :attr:`set`."""
+        return self.set.contains_points(x, tol)
+
+
+@dataclass(frozen=True, eq=False)
+class ReachResult:
+    """The outcome of :func:`hybridlab.reach`.
+
+    Attributes
+    ----------
+    sets : tuple of ReachSet
+        The flowpipes, in the order they were computed.
+    bounds : dict
+        Per state, ``(lo, hi)`` over everything reached.
+    reachable_modes : frozenset of str
+        Modes some set lies in.
+    complete : bool
+        Every branch was followed to ``t_end`` (or to a fixpoint, or until its set
+        left the mode's invariant); nothing was cut by ``max_jumps``, the set budget
+        or a failed step.
+    incomplete_reasons : tuple of str
+        Why not, one line each.
+    fixpoint : bool
+        Every branch ended in a fixpoint (or died): the union of the sets then
+        contains every state reachable at any time, not only up to ``t_end``.
+    time_s : float
+        Wall-clock time of the analysis.
+    state_names : tuple of str
+    t_span : tuple of float
+        ``(t_start, t_end)``.
+    options : ReachOptions
+        The settings used (with the step filled in).
+    """
+
+    sets: tuple[ReachSet, ...]
+    bounds: dict[str, tuple[float, float]]
+    reachable_modes: frozenset[str]
+    complete: bool
+    incomplete_reasons: tuple[str, ...]
+    fixpoint: bool
+    time_s: float
+    state_names: tuple[str, ...] = ()
+    t_span: tuple[float, float] = (0.0, 0.0)
+    options: ReachOptions = field(default_factory=ReachOptions, repr=False)
+
+    def bound(self, expr: str | sp.Expr, mode: str | None = None) -> tuple[float, float]:
+        """Enclosure of ``expr`` over every set (of ``mode``, if given)."""
+        pieces = [s.bound(expr) for s in self.sets if mode is None or s.mode == mode]
+        if not pieces:
+            raise ValueError(f"no reach set{'' if mode is None else f' in mode {mode!r}'}")
+        return min(p[0] for p in pieces), max(p[1] for p in pieces)
+
+    def sets_at(self, t: float, mode: str | None = None) -> tuple[ReachSet, ...]:
+        """The sets whose time interval contains ``t``."""
+        return tuple(s for s in self.sets
+                     if s.t[0] <= t <= s.t[1] and (mode is None or s.mode == mode))
+
+    def covers(self, t: Sequence[float] | np.ndarray, x: np.ndarray,
+               modes: Sequence[str] | str | None = None, tol: float = 1e-9) -> np.ndarray:
+        """Whether each sample ``(t_k, x_k, mode_k)`` lies in some set covering ``t_k``.
+
+        Parameters
+        ----------
+        t : array of shape (k,)
+        x : array of shape (k, n)
+            States in model order.
+        modes : str or sequence of str, optional
+            The mode of each sample (or one for all); ``None`` accepts any mode.
+        tol : float
+            Relative membership tolerance (see :meth:`Zonotope.contains_points`).
+
+        Returns
+        -------
+        numpy.ndarray of bool, shape (k,)
+        """
+        ts = np.atleast_1d(np.asarray(t, dtype=float))
+        X = np.atleast_2d(np.asarray(x, dtype=float))
+        if X.shape != (ts.size, len(self.state_names)):
+            raise ValueError(f"x must have shape ({ts.size}, {len(self.state_names)}) "
+                             f"(got {X.shape})")
+        if isinstance(modes, str):
+            modes = [modes] * ts.size
+        mode_arr = None if modes is None else np.asarray(list(modes), dtype=object)
+        covered = np.zeros(ts.size, dtype=bool)
+        for s in self.sets:
+            sel = (~covered) & (ts >= s.t[0]) & (ts <= s.t[1])
+            if mode_arr is not None:
+                sel &= mode_arr == s.mode
+            idx = np.flatnonzero(sel)
+            if idx.size == 0:
+                continue
+            box = s.set.bounds()
+            pre = np.all((X[idx] >= box[:, 0] - 1e-9) & (X[idx] <= box[:, 1] + 1e-9), axis=1)
+            idx = idx[pre]
+            if idx.size:
+                covered[idx] = s.set.contains_points(X[idx], tol)
+        return covered
+
+    def plot(self, x: str, y: str, ax: Any = None, traces: Sequence[Any] | None = None,
+             **style: Any) -> Any:
+        """Flowpipes projected on ``(x, y)`` (state names or ``"t"``), traces overlaid.
+
+        See :func:`hybridlab.reachability.plot.plot_reach`.
+        """
+        from hybridlab.reachability.plot import plot_reach
+
+        return plot_reach(self, x, y, ax=ax, traces=traces, **style)
+
+    def as_dict(self, include_sets: bool = False) -> dict[str, Any]:
+        """JSON-ready summary; ``include_sets`` adds every set's mode, time and bounds."""
+        out: dict[str, Any] = {
+            "complete": self.complete,
+            "incomplete_reasons": list(self.incomplete_reasons),
+            "fixpoint": self.fixpoint,
+            "time_s": self.time_s,
+            "t_span": list(self.t_span),
+            "bounds": {k: [float(v[0]), float(v[1])] for k, v in self.bounds.items()},
+            "reachable_modes": sorted(self.reachable_modes),
+            "n_sets": len(self.sets),
+            "max_jumps": max((s.jumps for s in self.sets), default=0),
+        }
+        if include_sets:
+            out["sets"] = [{"mode": s.mode, "t": [float(s.t[0]), float(s.t[1])],
+                            "jumps": s.jumps, "bounds": s.bounds().tolist()} for s in self.sets]
+        return out
+
+    def to_json(self, path: str | Path | None = None, include_sets: bool = False) -> str:
+        """:meth:`as_dict` as JSON text, also written to ``path`` if given."""
+        text = json.dumps(self.as_dict(include_sets), indent=2)
+        if path is not None:
+            Path(path).write_text(text + "\n")
+        return text

@@ -1,0 +1,519 @@
+"""Set representations: boxes, zonotopes and H-polytopes.
+
+All three answer the same three questions — :meth:`bounds` (the interval hull,
+shape ``(n, 2)``), :meth:`support` (the support function
+``max_{x in S} d . x``) and :meth:`contains_points` — and can be turned into a
+:class:`Zonotope`, the set the flowpipes are computed with.
+
+Zonotopes ``{c + G b : b in [-1, 1]^m}`` are closed under linear maps and
+Minkowski sums (both exact, by matrix products), which is why they carry the
+reachable sets (Girard, HSCC 2005). Order reduction (Girard's box method) keeps
+the number of generators bounded at the price of an over-approximation. LPs
+(intersection bounds, polytope bounds) use scipy's HiGHS.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy.optimize import linprog
+
+from hybridlab.errors import HybridlabError
+
+__all__ = ["SetError", "Box", "Zonotope", "Polytope", "as_zonotope"]
+
+
+class SetError(HybridlabError, ValueError):
+    """A set is malformed (shapes, NaN, lo > hi) or an LP on it failed."""
+
+
+def _vector(x: Any, name: str) -> np.ndarray:
+    v = np.array(x, dtype=float).reshape(-1)
+    if not np.all(np.isfinite(v)):
+        raise SetError(f"{name} must be finite (got {v.tolist()})")
+    return v
+
+
+def _points(X: Any, n: int) -> tuple[np.ndarray, bool]:
+    P = np.asarray(X, dtype=float)
+    single = P.ndim == 1
+    P = np.atleast_2d(P)
+    if P.shape[1] != n:
+        raise SetError(f"points must have {n} columns (got shape {np.shape(X)})")
+    return P, single
+
+
+def _outward(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    return np.column_stack([np.nextafter(lo, -np.inf), np.nextafter(hi, np.inf)])
+
+
+@dataclass(frozen=True, eq=False)
+class Box:
+    """An axis-aligned box ``lo <= x <= hi``.
+
+    Examples
+    --------
+    >>> b = Box([0.0, -1.0], [1.0, 1.0])
+    >>> b.bounds().tolist()
+    [[0.0, 1.0], [-1.0, 1.0]]
+    >>> float(b.support([1.0, 1.0]))
+    2.0
+    >>> b.contains_points([[0.5, 0.0], [2.0, 0.0]]).tolist()
+    [True, False]
+    """
+
+    lo: np.ndarray
+    hi: np.ndarray
+
+    def __post_init__(self) -> None:
+        lo, hi = _vector(self.lo, "lo"), _vector(self.hi, "hi")
+        if lo.shape != hi.shape:
+            raise SetError(f"lo and hi must have the same length (got {lo.size} and {hi.size})")
+        if np.any(lo > hi):
+            i = int(np.argmax(lo > hi))
+            raise SetError(f"lo must not exceed hi (got lo[{i}]={lo[i]} > hi[{i}]={hi[i]})")
+        object.__setattr__(self, "lo", lo)
+        object.__setattr__(self, "hi", hi)
+
+    @property
+    def dim(self) -> int:
+        return self.lo.size
+
+    def bounds(self) -> np.ndarray:
+        """The box itself, shape ``(n, 2)``."""
+        return np.column_stack([self.lo, self.hi])
+
+    def support(self, direction: Sequence[float]) -> float:
+        """``max d . x`` over the box."""
+        d = _vector(direction, "direction")
+        return float(np.sum(np.where(d >= 0, d * self.hi, d * self.lo)))
+
+    def contains_points(self, X: Any, tol: float = 0.0) -> np.ndarray:
+        """Whether each row of ``X`` lies in the box (within ``tol``)."""
+        P, single = _points(X, self.dim)
+        below, above = self.lo - P, P - self.hi
+        inside = np.all((below <= tol) & (above <= tol), axis=1)
+        return inside[0] if single else inside
+
+    def to_zonotope(self) -> Zonotope:
+        """The same box as a zonotope (one generator per non-degenerate axis)."""
+        c = 0.5 * (self.lo + self.hi)
+        r = np.nextafter(0.5 * (self.hi - self.lo), np.inf)
+        axes = np.flatnonzero(r > 0)
+        G = np.zeros((self.dim, axes.size))
+        G[axes, np.arange(axes.size)] = r[axes]
+        return Zonotope(c, G)
+
+
+@dataclass(frozen=True, eq=False)
+class Zonotope:
+    """The zonotope ``{center + generators @ b : b in [-1, 1]^m}``.
+
+    Parameters
+    ----------
+    center : array of shape (n,)
+    generators : array of shape (n, m)
+
+    Examples
+    --------
+    >>> z = Zonotope([1.0, 0.0], [[1.0, 0.5], [0.0, 0.5]])
+    >>> z.bounds().round(12).tolist()
+    [[-0.5, 2.5], [-0.5, 0.5]]
+    >>> z.linear_map([[0.0, 1.0], [1.0, 0.0]]).bounds().round(12).tolist()
+    [[-0.5, 0.5], [-0.5, 2.5]]
+    >>> bool(z.contains_points([1.0, 0.0])), bool(z.contains_points([2.5, -0.5]))
+    (True, False)
+    """
+
+    center: np.ndarray
+    generators: np.ndarray
+
+    def __post_init__(self) -> None:
+        c = _vector(self.center, "center")
+        G = np.array(self.generators, dtype=float)
+        if G.ndim == 1 and G.size == 0:
+            G = G.reshape(c.size, 0)
+        if G.ndim != 2 or G.shape[0] != c.size:
+            raise SetError(f"generators must have shape ({c.size}, m) (got {G.shape})")
+        if not np.all(np.isfinite(G)):
+            raise SetError("generators must be finite")
+        object.__setattr__(self, "center", c)
+        object.__setattr__(self, "generators", G)
+
+    @property
+    def dim(self) -> int:
+        return self.center.size
+
+    @property
+    def order(self) -> float:
+        """Number of generators divided by the dimension."""
+        return self.generators.shape[1] / max(self.dim, 1)
+
+    def radius(self) -> np.ndarray:
+        """Half-widths of the interval hull."""
+        return np.nextafter(np.sum(np.abs(self.generators), axis=1), np.inf)
+
+    def bounds(self) -> np.ndarray:
+        """The interval hull, shape ``(n, 2)``, rounded outward."""
+        r = self.radius()
+        return _outward(self.center - r, self.center + r)
+
+    def support(self, direction: Sequence[float]) -> float:
+        """``max d . x`` over the zonotope (exact: ``d.c + sum |d.g_i|``)."""
+        d = _vector(direction, "direction")
+        return float(d @ self.center + np.sum(np.abs(d @ self.generators)))
+
+    def interval_hull(self) -> Box:
+        """The smallest box containing the zonotope."""
+        b = self.bounds()
+        return Box(b[:, 0], b[:, 1])
+
+    def box(self) -> Zonotope:
+        """The interval hull as a zonotope."""
+        return self.interval_hull().to_zonotope()
+
+    def linear_map(self, M: Any, offset: Any = None) -> Zonotope:
+        """``{M x + offset}``, exact."""
+        M = np.atleast_2d(np.asarray(M, dtype=float))
+        c = M @ self.center
+        if offset is not None:
+            c = c + np.asarray(offset, dtype=float)
+        return Zonotope(c, M @ self.generators)
+
+    def minkowski_sum(self, other: Zonotope | Box | np.ndarray) -> Zonotope:
+        """``{x + y}``, exact; ``other`` may also be a vector (a translation)."""
+        if isinstance(other, Box):
+            other = other.to_zonotope()
+        if isinstance(other, Zonotope):
+            return Zonotope(self.center + other.center,
+                            np.hstack([self.generators, other.generators]))
+        return Zonotope(self.center + np.asarray(other, dtype=float), self.generators)
+
+    __add__ = minkowski_sum
+
+    def project(self, dims: Sequence[int]) -> Zonotope:
+        """The projection on the coordinates ``dims``."""
+        idx = list(dims)
+        return Zonotope(self.center[idx], self.generators[idx])
+
+    def compact(self, tol: float = 0.0) -> Zonotope:
+        """The same set without zero generators (and with all-``tol``-small ones dropped
+        into a box, which keeps it an over-approximation)."""
+        G = self.generators
+        size = np.sum(np.abs(G), axis=0)
+        keep = size > tol
+        if tol > 0 and np.any(~keep & (size > 0)):
+            small = np.sum(np.abs(G[:, ~keep]), axis=1)
+            return Zonotope(self.center, np.hstack([G[:, keep], np.diag(small)])).compact()
+        return Zonotope(self.center, G[:, keep])
+
+    def reduce(self, order: float) -> Zonotope:
+        """Girard's box method: at most ``order * n`` generators, over-approximating.
+
+        The generators with the smallest ``|g|_1 - |g|_inf`` (the ones a box
+        encloses with the least loss) are replaced by their interval hull.
+        """
+        n = self.dim
+        G = self.generators[:, np.any(self.generators != 0, axis=0)]
+        limit = max(int(order * n), n)
+        if G.shape[1] <= limit:
+            return Zonotope(self.center, G)
+        score = np.sum(np.abs(G), axis=0) - np.max(np.abs(G), axis=0)
+        ranked = np.argsort(score)
+        n_box = G.shape[1] - limit + n
+        boxed, kept = ranked[:n_box], ranked[n_box:]
+        radius = np.nextafter(np.sum(np.abs(G[:, boxed]), axis=1), np.inf)
+        return Zonotope(self.center, np.hstack([G[:, kept], np.diag(radius)])).compact()
+
+    def halfspaces(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """An H-representation ``A x <= b`` for full-dimensional zonotopes with n <= 3.
+
+        ``None`` when the zonotope is degenerate or ``n > 3`` (use LPs then).
+        """
+        n = self.dim
+        G = self.compact().generators
+        if n > 3 or G.shape[1] == 0 or np.linalg.matrix_rank(G) < n:
+            return None
+        if n == 1:
+            normals = np.array([[1.0]])
+        elif n == 2:
+            normals = np.column_stack([-G[1], G[0]])
+        else:
+            i, j = np.triu_indices(G.shape[1], k=1)
+            normals = np.cross(G[:, i].T, G[:, j].T)
+        normals = np.vstack([normals, np.eye(n)])
+        norm = np.linalg.norm(normals, axis=1)
+        normals = normals[norm > 1e-12 * max(1.0, float(norm.max()))]
+        normals = normals / np.linalg.norm(normals, axis=1)[:, None]
+        A = np.vstack([normals, -normals])
+        b = A @ self.center + np.sum(np.abs(A @ G), axis=1)
+        return A, b
+
+    def contains_points(self, X: Any, tol: float = 1e-9) -> np.ndarray:
+        """Whether each row of ``X`` lies in the zonotope, within ``tol`` (relative to its
+        size). Exact for full-dimensional zonotopes with n <= 3 (facets), an LP otherwise."""
+        P, single = _points(X, self.dim)
+        scale = tol * (1.0 + float(np.max(np.abs(self.center), initial=0.0))
+                       + float(np.max(self.radius(), initial=0.0)))
+        H = self.halfspaces()
+        if H is not None:
+            A, b = H
+            excess = P @ A.T - b
+            inside = np.all(excess <= scale, axis=1)
+        else:
+            inside = np.array([self._contains_lp(p, scale) for p in P], dtype=bool)
+        return inside[0] if single else inside
+
+    def _contains_lp(self, p: np.ndarray, tol: float) -> bool:
+        G = self.generators
+        if G.shape[1] == 0:
+            return bool(np.all(np.abs(p - self.center) <= tol))
+        lo = self.bounds()
+        if np.any(p < lo[:, 0] - tol) or np.any(p > lo[:, 1] + tol):
+            return False
+        m = G.shape[1]
+        # minimise s subject to |G b - (p - c)| <= s, -1 <= b <= 1
+        A = np.block([[G, -np.ones((self.dim, 1))], [-G, -np.ones((self.dim, 1))]])
+        rhs = np.concatenate([p - self.center, self.center - p])
+        res = linprog(np.r_[np.zeros(m), 1.0], A_ub=A, b_ub=rhs,
+                      bounds=[(-1, 1)] * m + [(0, None)], method="highs")
+        return bool(res.status == 0 and res.fun <= tol)
+
+    def intersect_halfspace(self, a: Sequence[float], b: float) -> Zonotope | None:
+        """A zonotope containing ``Z ∩ {a . x <= b}`` (``None`` if that is empty).
+
+        Each generator factor's range ``[-1, 1]`` is narrowed to what the
+        halfspace allows given the others' extremes (one pass of interval
+        constraint propagation), and the zonotope is re-centred on the narrowed
+        factors. Exact when one generator alone crosses the boundary.
+
+        Examples
+        --------
+        >>> z = Zonotope([0.0, 0.0], [[1.0, 0.0], [0.0, 1.0]])
+        >>> z.intersect_halfspace([1.0, 0.0], 0.5).bounds().round(9).tolist()
+        [[-1.0, 0.5], [-1.0, 1.0]]
+        """
+        a = _vector(a, "a")
+        G, c = self.generators, self.center
+        d = a @ G
+        s = float(b) - float(a @ c)
+        spread = float(np.sum(np.abs(d)))
+        slack = 1e-12 * (abs(s) + spread + 1e-300)
+        if -spread > s + slack:
+            return None
+        if spread <= s:
+            return self
+        lo, hi = -np.ones(d.size), np.ones(d.size)
+        room = s + slack + spread  # s minus the others' minimum, before removing |d_i|
+        for i in np.flatnonzero(np.abs(d) > 1e-300):
+            limit = (room - abs(d[i])) / d[i]
+            if d[i] > 0:
+                hi[i] = min(hi[i], limit * (1 + 1e-12) + 1e-300 if limit > 0 else
+                            limit * (1 - 1e-12) + 1e-300)
+            else:
+                lo[i] = max(lo[i], limit * (1 + 1e-12) - 1e-300 if limit < 0 else
+                            limit * (1 - 1e-12) - 1e-300)
+        if np.any(lo > hi):
+            return None
+        mid, rad = 0.5 * (lo + hi), 0.5 * (hi - lo)
+        return Zonotope(c + G @ mid, G * rad).compact()
+
+    def may_intersect(self, a: Sequence[float], b: float) -> bool:
+        """Whether some point satisfies ``a . x <= b``."""
+        return -self.support(-np.asarray(a, dtype=float)) <= b
+
+    def bounds_in_slab(self, a: Sequence[float], lo: float, hi: float) -> np.ndarray | None:
+        """Tight bounds of ``Z ∩ {lo <= a . x <= hi}``, ``None`` if empty.
+
+        Solved through the LP dual, which for one slab is the maximum of a concave
+        piecewise-linear function of one multiplier ``mu``: every ``mu`` gives a
+        valid bound (weak duality), so the answer is sound whatever the rounding,
+        and the best breakpoint is exact (strong duality).
+
+        Examples
+        --------
+        >>> z = Zonotope([0.0, 0.0], [[1.0, 1.0], [1.0, -1.0]])   # a square rotated 45 deg
+        >>> z.bounds_in_slab([1.0, 0.0], 1.5, 2.0).round(9).tolist()
+        [[1.5, 2.0], [-0.5, 0.5]]
+        """
+        a = _vector(a, "a")
+        G, c = self.generators, self.center
+        d = a @ G
+        shift = float(a @ c)
+        l, u = float(lo) - shift, float(hi) - shift
+        spread = float(np.sum(np.abs(d)))
+        tol = 1e-12 * (spread + abs(l) + abs(u) + 1e-300) if np.isfinite(l + u) else 0.0
+        if u < -spread - tol or l > spread + tol:
+            return None
+        nz = np.flatnonzero(d)
+        out = self.bounds().copy()
+        if nz.size == 0:
+            return out
+        # objectives +-G_i; candidate multipliers: the breakpoints -C_ij / d_j and 0
+        C = np.vstack([G, -G])                                   # (2n, m)
+        mus = np.concatenate([-C[:, nz] / d[nz], np.zeros((2 * G.shape[0], 1))], axis=1)
+        vals = -np.sum(np.abs(C[:, None, :] + mus[:, :, None] * d[None, None, :]), axis=2)
+        vals -= np.maximum(mus * u if np.isfinite(u) else np.where(mus > 0, np.inf, 0.0),
+                           mus * l if np.isfinite(l) else np.where(mus < 0, np.inf, 0.0))
+        best = np.argmax(vals, axis=1)
+        mu = mus[np.arange(C.shape[0]), best]
+        g = vals[np.arange(C.shape[0]), best]
+        ends = (abs(u) if np.isfinite(u) else 0.0) + (abs(l) if np.isfinite(l) else 0.0)
+        size = np.sum(np.abs(C), axis=1) + np.abs(mu) * (spread + ends)
+        g = g - 1e-12 * size - 1e-300                              # rounding of the evaluation
+        n = G.shape[0]
+        lower = c + g[:n]          # min G_i b >= g_i
+        upper = c - g[n:]          # max G_i b = -min(-G_i b) <= -g_{n+i}
+        out[:, 0] = np.maximum(out[:, 0], np.nextafter(lower, -np.inf))
+        out[:, 1] = np.minimum(out[:, 1], np.nextafter(upper, np.inf))
+        if np.any(out[:, 0] > out[:, 1]):
+            return None
+        return out
+
+    def bounds_within(self, A: Any, b: Any, dims: Sequence[int] | None = None
+                      ) -> np.ndarray | None:
+        """Tight bounds of ``Z ∩ {A x <= b}``.
+
+        Rows that are all parallel form one slab (:meth:`bounds_in_slab`, no
+        LP); otherwise by ``2 n`` LPs over the generator factors (HiGHS).
+        Returns ``None`` when the intersection is empty. ``dims`` selects the
+        coordinates to bound by LP (all by default).
+        """
+        A = np.atleast_2d(np.asarray(A, dtype=float))
+        b = np.asarray(b, dtype=float).reshape(-1)
+        G, c = self.generators, self.center
+        m = G.shape[1]
+        out = self.bounds().copy()
+        if m == 0:
+            return out if np.all(A @ c <= b + 1e-12 * (1 + np.abs(b))) else None
+        slab = _as_slab(A, b)
+        if slab is not None:
+            return self.bounds_in_slab(*slab)
+        A_ub, b_ub = A @ G, b - A @ c
+        for i in range(self.dim) if dims is None else dims:
+            if not np.any(G[i]):
+                continue
+            for sign, col in ((1.0, 0), (-1.0, 1)):
+                res = linprog(sign * G[i], A_ub=A_ub, b_ub=b_ub, bounds=[(-1, 1)] * m,
+                              method="highs")
+                if res.status == 2:
+                    return None
+                if res.status != 0:
+                    raise SetError(f"LP for the bounds of an intersection failed: {res.message}")
+                # HiGHS solves to ~1e-9 feasibility: widen by that much, never shrink past Z
+                value = c[i] + sign * res.fun
+                slack = 1e-9 * (1.0 + abs(value) + float(np.sum(np.abs(G[i]))))
+                if col == 0:
+                    out[i, 0] = max(out[i, 0], value - slack)
+                else:
+                    out[i, 1] = min(out[i, 1], value + slack)
+        return out
+
+
+def _as_slab(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float, float] | None:
+    """``A x <= b`` as ``lo <= a . x <= hi`` when every row is parallel to the first."""
+    a = A[0]
+    na = float(np.linalg.norm(a))
+    if na == 0:
+        return None
+    lo, hi = -np.inf, np.inf
+    for row, bi in zip(A, b, strict=True):
+        k = float(row @ a) / na**2
+        if k == 0 or not np.allclose(row, k * a, rtol=0, atol=1e-15 * np.abs(row).max()):
+            return None
+        if np.any(row != k * a):  # not exactly parallel: leave it to the LP
+            return None
+        if k > 0:
+            hi = min(hi, bi if k == 1 else float(np.nextafter(bi / k, np.inf)))
+        else:
+            lo = max(lo, -bi if k == -1 else float(np.nextafter(bi / k, -np.inf)))
+    return a, lo, hi
+
+
+@dataclass(frozen=True, eq=False)
+class Polytope:
+    """The H-polytope ``{x : A x <= b}`` (bounded for :meth:`bounds`).
+
+    Examples
+    --------
+    >>> triangle = Polytope([[-1.0, 0.0], [0.0, -1.0], [1.0, 1.0]], [0.0, 0.0, 1.0])
+    >>> (triangle.bounds().round(6) + 0.0).tolist()
+    [[0.0, 1.0], [0.0, 1.0]]
+    >>> round(triangle.support([1.0, 2.0]), 9)
+    2.0
+    >>> triangle.contains_points([[0.2, 0.2], [0.8, 0.8]]).tolist()
+    [True, False]
+    """
+
+    A: np.ndarray
+    b: np.ndarray
+
+    def __post_init__(self) -> None:
+        A = np.atleast_2d(np.array(self.A, dtype=float))
+        b = _vector(self.b, "b")
+        if A.shape[0] != b.size:
+            raise SetError(f"A must have one row per entry of b (got {A.shape} and {b.size})")
+        if not np.all(np.isfinite(A)):
+            raise SetError("A must be finite")
+        object.__setattr__(self, "A", A)
+        object.__setattr__(self, "b", b)
+
+    @property
+    def dim(self) -> int:
+        return self.A.shape[1]
+
+    def support(self, direction: Sequence[float]) -> float:
+        """``max d . x`` by an LP; ``inf`` if unbounded in that direction."""
+        d = _vector(direction, "direction")
+        res = linprog(-d, A_ub=self.A, b_ub=self.b, bounds=[(None, None)] * self.dim,
+                      method="highs")
+        if res.status == 3:
+            return float("inf")
+        if res.status == 2:
+            raise SetError("the polytope is empty")
+        if res.status != 0:
+            raise SetError(f"support LP failed: {res.message}")
+        return float(-res.fun)
+
+    def bounds(self) -> np.ndarray:
+        """The interval hull by ``2 n`` LPs, widened by the LP tolerance."""
+        out = np.empty((self.dim, 2))
+        for i in range(self.dim):
+            e = np.zeros(self.dim)
+            e[i] = 1.0
+            hi, lo = self.support(e), -self.support(-e)
+            slack = 1e-9 * (1.0 + max(abs(lo), abs(hi)))
+            out[i] = (lo - slack, hi + slack)
+        if not np.all(np.isfinite(out)):
+            raise SetError("the polytope is unbounded; a reachable set must be bounded")
+        return out
+
+    def contains_points(self, X: Any, tol: float = 1e-9) -> np.ndarray:
+        """Whether each row of ``X`` satisfies ``A x <= b`` (within ``tol``)."""
+        P, single = _points(X, self.dim)
+        excess = P @ self.A.T - self.b
+        inside = np.all(excess <= tol * (1 + np.abs(self.b)), axis=1)
+        return inside[0] if single else inside
+
+    def to_zonotope(self) -> Zonotope:
+        """The interval hull as a zonotope (an over-approximation)."""
+        b = self.bounds()
+        return Box(b[:, 0], b[:, 1]).to_zonotope()
+
+
+def as_zonotope(s: Box | Zonotope | Polytope) -> Zonotope:
+    """Any supported set as a zonotope (exact for boxes and zonotopes).
+
+    Examples
+    --------
+    >>> (as_zonotope(Box([0.0], [2.0])).bounds().round(12) + 0.0).tolist()
+    [[0.0, 2.0]]
+    """
+    if isinstance(s, Zonotope):
+        return s
+    if isinstance(s, Box | Polytope):
+        return s.to_zonotope()
+    raise SetError(f"expected a Box, Zonotope or Polytope (got {type(s).__name__})")

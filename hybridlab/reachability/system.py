@@ -1,0 +1,283 @@
+"""The model's equations prepared for reachability: extended state, inputs, derivatives.
+
+Reachability works on an *extended state* ``z``: the model's states, then one
+state per uncertain constant parameter (zero flow: the value is unknown but
+fixed), then time ``t`` (flow 1) when any flow, guard, invariant or reset
+depends on it. The *inputs* ``u`` are the parameters that vary in time within
+bounds (``inputs=``), then the sign symbols ``sigma_k`` of the mode's
+discontinuities (see :mod:`hybridlab.symbolic.discontinuities`). Every other
+parameter is substituted by its value.
+
+Everything here is derived once per :func:`reach` call from the sympy form;
+model text is never evaluated.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import sympy as sp
+
+from hybridlab.model.checks import TIME
+from hybridlab.reachability.interval import IntervalFunction
+from hybridlab.symbolic.compile import CompiledModel
+from hybridlab.symbolic.discontinuities import extract_switches
+from hybridlab.symbolic.functions import _no_impulses
+from hybridlab.symbolic.lagrange import lagrange_equations, mode_flow
+
+__all__ = ["Rows", "ModeSystem", "ResetMap", "System", "build_system"]
+
+
+def _lambdify(exprs: Sequence[sp.Expr], args: Sequence[Sequence[sp.Symbol]]):
+    # sympy expressions built by the model layer's whitelist parser, never user text
+    f = sp.lambdify([list(a) for a in args], list(exprs), modules="numpy", cse=True)
+
+    def call(*values: np.ndarray) -> np.ndarray:
+        return np.array(f(*values), dtype=float).reshape(len(exprs))
+
+    return call
+
+
+def _constant_gradient(exprs: Sequence[sp.Expr], syms: Sequence[sp.Symbol]) -> np.ndarray | None:
+    """The matrix ``d expr_i / d sym_j`` when every expression is affine in ``syms``."""
+    out = np.zeros((len(exprs), len(syms)))
+    for i, e in enumerate(exprs):
+        for j, s in enumerate(syms):
+            d = sp.diff(e, s)
+            if d.free_symbols:
+                return None
+            if d != 0:
+                out[i, j] = float(d)
+    return out
+
+
+class Rows:
+    """Inequalities ``g_i(z) >= 0`` (guards, invariants, switching functions).
+
+    Linear rows are bounded exactly through support functions, the others by
+    interval arithmetic over the set's interval hull.
+    """
+
+    def __init__(self, exprs: Sequence[sp.Expr], zsyms: Sequence[sp.Symbol],
+                 texts: Sequence[str] = ()) -> None:
+        self.exprs = tuple(exprs)
+        self.texts = tuple(texts) or tuple(str(e) for e in exprs)
+        self.size = len(self.exprs)
+        self.linear = np.zeros(self.size, dtype=bool)
+        self.a = np.zeros((self.size, len(zsyms)))
+        self.b = np.zeros(self.size)
+        zero = dict.fromkeys(zsyms, 0)
+        for i, e in enumerate(self.exprs):
+            grad = _constant_gradient([e], zsyms)
+            if grad is not None:
+                self.linear[i] = True
+                self.a[i] = grad[0]
+                self.b[i] = float(e.xreplace(zero))
+        self._interval = IntervalFunction(self.exprs, zsyms) if self.size else None
+
+    def range(self, Z, box: np.ndarray | None = None) -> np.ndarray:
+        """Enclosure ``(size, 2)`` of every row over the zonotope ``Z``."""
+        out = np.empty((self.size, 2))
+        if self.size == 0:
+            return out
+        G, c = Z.generators, Z.center
+        lin = np.flatnonzero(self.linear)
+        if lin.size:
+            a = self.a[lin]
+            mid = a @ c + self.b[lin]
+            rad = np.sum(np.abs(a @ G), axis=1)
+            slack = 1e-13 * (np.abs(mid) + rad + np.abs(self.b[lin])) + 1e-300
+            out[lin, 0] = mid - rad - slack
+            out[lin, 1] = mid + rad + slack
+        nonlin = np.flatnonzero(~self.linear)
+        if nonlin.size:
+            box = Z.bounds() if box is None else box
+            lo, hi = self._interval(box[:, 0], box[:, 1])
+            out[nonlin, 0] = lo[nonlin]
+            out[nonlin, 1] = hi[nonlin]
+        return out
+
+
+@dataclass(frozen=True, eq=False)
+class ResetMap:
+    """A transition's reset on the extended state: ``z+ = M z + r`` when affine."""
+
+    exprs: tuple[sp.Expr, ...]
+    zsyms: tuple[sp.Symbol, ...]
+
+    @cached_property
+    def matrix(self) -> np.ndarray | None:
+        return _constant_gradient(self.exprs, self.zsyms)
+
+    @cached_property
+    def offset(self) -> np.ndarray:
+        zero = dict.fromkeys(self.zsyms, 0)
+        return np.array([float(e.xreplace(zero)) for e in self.exprs])
+
+    @cached_property
+    def value(self):
+        return _lambdify(self.exprs, [self.zsyms])
+
+    @cached_property
+    def jacobian_interval(self) -> IntervalFunction:
+        jac = sp.Matrix(self.exprs).jacobian(self.zsyms)
+        return IntervalFunction([_no_impulses(e) for e in jac], self.zsyms)
+
+
+@dataclass(frozen=True, eq=False)
+class ModeSystem:
+    """The flow of one mode over ``w = (z, u)``: value, Jacobians, Hessian enclosure."""
+
+    name: str
+    flow: tuple[sp.Expr, ...]
+    zsyms: tuple[sp.Symbol, ...]
+    usyms: tuple[sp.Symbol, ...]
+    #: rows of the switching functions ``s_k``, aligned with the sigma inputs
+    switches: Rows
+    #: index of each switch's sigma in ``u``
+    sigma_index: tuple[int, ...]
+    invariants: Rows
+
+    @cached_property
+    def wsyms(self) -> tuple[sp.Symbol, ...]:
+        return self.zsyms + self.usyms
+
+    @cached_property
+    def value(self):
+        return _lambdify(self.flow, [self.zsyms, self.usyms])
+
+    @cached_property
+    def _jac(self) -> sp.Matrix:
+        return sp.Matrix(self.flow).jacobian(self.wsyms).applyfunc(_no_impulses)
+
+    @cached_property
+    def jacobian(self):
+        """``(z, u) -> d f / d w``, shape ``(nz, nz + nu)``."""
+        f = _lambdify(list(self._jac), [self.zsyms, self.usyms])
+        shape = self._jac.shape
+        return lambda z, u: f(z, u).reshape(shape)
+
+    @cached_property
+    def hessian(self) -> IntervalFunction | None:
+        """Interval enclosure of every ``d2 f_i / dw_j dw_k``; ``None`` when ``f`` is affine."""
+        entries = [_no_impulses(sp.diff(e, w)) for e in self._jac for w in self.wsyms]
+        if all(e == 0 for e in entries):
+            return None
+        return IntervalFunction(entries, self.wsyms)
+
+    @property
+    def affine(self) -> bool:
+        return self.hessian is None
+
+    def lie(self, rows: Rows) -> IntervalFunction:
+        """Interval enclosure of the time derivatives of ``rows`` along this flow."""
+        exprs = [sum((sp.diff(e, z) * f for z, f in zip(self.zsyms, self.flow, strict=True)),
+                     sp.Integer(0)) for e in rows.exprs]
+        return IntervalFunction([_no_impulses(e) for e in exprs], self.wsyms)
+
+
+@dataclass(frozen=True, eq=False)
+class System:
+    """Everything :func:`hybridlab.reach` needs from the model, for one set of parameters."""
+
+    compiled: CompiledModel
+    zsyms: tuple[sp.Symbol, ...]
+    #: names of the extended states: model states, uncertain parameters, then ``t``
+    znames: tuple[str, ...]
+    n_states: int
+    uncertain: Mapping[str, tuple[float, float]]
+    inputs: Mapping[str, tuple[float, float]]
+    timed: bool
+    modes: Mapping[str, ModeSystem]
+    guards: Mapping[int, Rows]
+    resets: Mapping[int, ResetMap]
+    #: point values substituted for the other parameters
+    values: Mapping[sp.Symbol, float]
+
+    @property
+    def time_index(self) -> int | None:
+        return len(self.zsyms) - 1 if self.timed else None
+
+    def input_box(self, mode: str) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds of ``u`` with every sigma free in ``[-1, 1]``."""
+        m = self.modes[mode]
+        lo = np.array([self.inputs[str(s)][0] for s in m.usyms[:len(self.inputs)]]
+                      + [-1.0] * len(m.sigma_index))
+        hi = np.array([self.inputs[str(s)][1] for s in m.usyms[:len(self.inputs)]]
+                      + [1.0] * len(m.sigma_index))
+        return lo, hi
+
+
+def build_system(compiled: CompiledModel, values: np.ndarray,
+                 uncertain: Mapping[str, tuple[float, float]],
+                 inputs: Mapping[str, tuple[float, float]]) -> System:
+    """Substitute parameters and build the extended-state form of every mode.
+
+    Parameters
+    ----------
+    compiled : CompiledModel
+    values : array
+        Parameter values in declaration order (uncertain and input entries ignored).
+    uncertain : mapping
+        Uncertain constant parameters and their bounds.
+    inputs : mapping
+        Time-varying bounded inputs and their bounds.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> c = hybridlab.compile_model(hybridlab.load_model("models/thermostat.toml"))
+    >>> s = build_system(c, c.parameter_vector(), {"a": (0.09, 0.11)}, {})
+    >>> s.znames, s.modes["heat"].affine
+    (('T', 'a'), False)
+    """
+    sym = compiled.symbolic
+    pmap = dict(zip(sym.parameter_names, sym.parameters, strict=True))
+    fixed = {pmap[n]: float(v) for n, v in zip(sym.parameter_names, values, strict=True)
+             if n not in uncertain and n not in inputs}
+    usyms_in = tuple(pmap[n] for n in inputs)
+    equations = None
+    if sym.mechanics is not None:
+        mech = sym.mechanics
+        equations = lagrange_equations(mech.kinetic, mech.potential,
+                                       [sym.states[i] for i in mech.coordinates],
+                                       [sym.states[i] for i in mech.velocities])
+
+    def subs(e: sp.Expr) -> sp.Expr:
+        return sp.sympify(e).xreplace(fixed)
+
+    flows = {name: tuple(subs(e) for e in mode_flow(sym, name, equations))
+             for name in sym.modes}
+    guard_exprs = {tr.index: tuple(subs(r.expr) for r in tr.guard) for tr in sym.transitions}
+    reset_exprs = {tr.index: tuple(subs(e) for e in tr.reset) for tr in sym.transitions}
+    inv_exprs = {name: tuple(subs(r.expr) for r in m.invariants) for name, m in sym.modes.items()}
+    everything = [e for f in flows.values() for e in f]
+    everything += [e for g in guard_exprs.values() for e in g]
+    everything += [e for r in reset_exprs.values() for e in r]
+    everything += [e for i in inv_exprs.values() for e in i]
+    timed = any(TIME in sp.sympify(e).free_symbols for e in everything)
+    zsyms = tuple(sym.states) + tuple(pmap[n] for n in uncertain) + ((TIME,) if timed else ())
+    znames = tuple(sym.state_names) + tuple(uncertain) + (("t",) if timed else ())
+    extra_flow = (sp.Integer(0),) * len(uncertain) + ((sp.Integer(1),) if timed else ())
+    extra_reset = tuple(pmap[n] for n in uncertain) + ((TIME,) if timed else ())
+
+    modes = {}
+    for name, m in sym.modes.items():
+        smooth, switches = extract_switches(flows[name], prefix="_rsigma")
+        usyms = usyms_in + tuple(s.symbol for s in switches)
+        modes[name] = ModeSystem(
+            name=name, flow=tuple(smooth) + extra_flow, zsyms=zsyms, usyms=usyms,
+            switches=Rows([s.expr for s in switches], zsyms, [s.text for s in switches]),
+            sigma_index=tuple(range(len(usyms_in), len(usyms))),
+            invariants=Rows(inv_exprs[name], zsyms, [r.text for r in m.invariants]),
+        )
+    guards = {tr.index: Rows(guard_exprs[tr.index], zsyms, [r.text for r in tr.guard])
+              for tr in sym.transitions}
+    resets = {tr.index: ResetMap(reset_exprs[tr.index] + extra_reset, zsyms)
+              for tr in sym.transitions}
+    return System(compiled=compiled, zsyms=zsyms, znames=znames, n_states=len(sym.states),
+                  uncertain=dict(uncertain), inputs=dict(inputs), timed=timed, modes=modes,
+                  guards=guards, resets=resets, values=fixed)
