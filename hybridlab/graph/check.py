@@ -204,9 +204,9 @@ def _parameter_sets(model: Model, sym: SymbolicModel,
     symbols = dict(zip(sym.parameter_names, sym.parameters, strict=True))
     base = {symbols[n]: float(p.value) for n, p in model.parameters.items()}
     sets = []
-    if scenarios is None:
+    if not scenarios:  # None: every scenario too; an empty sequence: the model's values only
         sets.append(_ParameterSet(MODEL_VALUES, base, model.initial.mode))
-        scenarios = list(model.scenarios)
+        scenarios = list(model.scenarios) if scenarios is None else []
     for name in scenarios:
         if name not in model.scenarios:
             known = ", ".join(model.scenarios) or "none"
@@ -381,8 +381,9 @@ def check_mode_graph(model: Model, *, scenarios: Sequence[str] | None = None,
         The model.
     scenarios : sequence of str, optional
         The scenarios whose parameter values and initial modes are checked.
-        By default the model's own values and every scenario; a sequence
-        checks exactly those scenarios.
+        By default the model's own values and every scenario; a non-empty
+        sequence checks exactly those scenarios, an empty one only the
+        model's own values.
     max_cycle_length : int
         Longest cycle (in transitions) examined for zero-dwell firing.
     max_cycles : int
@@ -497,10 +498,12 @@ def check_mode_graph(model: Model, *, scenarios: Sequence[str] | None = None,
     # ----- zero-dwell cycles
     cycles: list[CycleCheck] = []
     truncated = False
-    for count, chain in enumerate(_cycles(edges, modes, max_cycle_length)):
+    for count, found in enumerate(_cycles(edges, modes, max_cycle_length)):
         if count >= max_cycles:
             truncated = True
             break
+        start = min(range(len(found)), key=lambda i: found[i].tr.index)
+        chain = found[start:] + found[:start]  # starts at the first declared transition
         verdicts = []
         witness = None
         decision = None
