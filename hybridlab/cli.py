@@ -110,6 +110,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     kwargs = {}
     if args.zeno:
         kwargs["zeno"] = args.zeno
+    if args.backend:
+        kwargs["backend"] = args.backend
     result = simulate(
         model, args.t_end, scenario=args.scenario, params=params, initial=initial,
         mode=args.mode, rtol=args.rtol, atol=args.atol, method=args.method,
@@ -178,6 +180,8 @@ def _parser() -> _Parser:
     sim.add_argument("--method", choices=METHODS)
     sim.add_argument("--max-step", type=float, dest="max_step")
     sim.add_argument("--zeno", choices=("stop", "error"))
+    sim.add_argument("--backend", choices=("auto", "compiled", "reference"),
+                     help="simulation backend (default: compiled when numba is installed)")
     sim.add_argument("--out", help="write the result (.json, .csv or .npz)")
     sim.set_defaults(run=_cmd_simulate)
 

@@ -9,6 +9,7 @@ import numpy as np
 
 from hybridlab.model.loader import load_model
 from hybridlab.model.schema import Model
+from hybridlab.simulation.compiled import use_compiled
 from hybridlab.simulation.engine import run
 from hybridlab.simulation.options import SimulationOptions
 from hybridlab.simulation.result import SimulationResult
@@ -63,7 +64,8 @@ def simulate(
     options : SimulationOptions, optional
         All settings at once; keyword arguments override its fields.
     **option_overrides
-        Any other :class:`SimulationOptions` field, e.g. ``zeno="error"``.
+        Any other :class:`SimulationOptions` field, e.g. ``zeno="error"`` or
+        ``backend="reference"``.
 
     Returns
     -------
@@ -125,4 +127,12 @@ def simulate(
     if unknown:
         raise TypeError(f"simulate() got unknown option(s): {', '.join(sorted(unknown))}")
     opts = SimulationOptions(**{**base.__dict__, **settings})
-    return run(compiled, t0=float(t0), x0=x0, mode=mode, t_end=float(t_end), p=p, options=opts)
+    if use_compiled(opts.backend):
+        from hybridlab.simulation.compiled.backend import run as run_compiled
+
+        return run_compiled(compiled, t0=float(t0), x0=x0, mode=mode, t_end=float(t_end), p=p,
+                            options=opts)
+    result = run(compiled, t0=float(t0), x0=x0, mode=mode, t_end=float(t_end), p=p,
+                 options=opts)
+    result.stats["backend"] = "reference"  # a fresh dict of this run
+    return result

@@ -5,11 +5,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-__all__ = ["SimulationOptions", "METHODS"]
+__all__ = ["SimulationOptions", "METHODS", "BACKENDS"]
 
 #: scipy integrators hybridlab can drive step by step (all have dense output).
 METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
 _ZENO_POLICIES = ("stop", "error")
+#: simulation backends: "auto" is "compiled" when numba is installed, else "reference"
+BACKENDS = ("auto", "compiled", "reference")
 
 
 @dataclass(frozen=True)
@@ -49,6 +51,11 @@ class SimulationOptions:
     zeno_tol : float
         Zeno is declared once the extrapolated accumulation point is closer
         than ``zeno_tol * max(1, |t|)``.
+    backend : {"auto", "compiled", "reference"}
+        ``"compiled"`` runs the numba kernel (the ``fast`` extra), falling back
+        to the reference engine for what it does not support (recorded in
+        ``result.stats["backend"]``); ``"auto"`` (default) is ``"compiled"``
+        when numba is installed and ``"reference"`` otherwise.
 
     Examples
     --------
@@ -69,6 +76,7 @@ class SimulationOptions:
     zeno: str = "stop"
     zeno_window: int = 6
     zeno_tol: float = 1e-6
+    backend: str = "auto"
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -87,6 +95,9 @@ class SimulationOptions:
             raise ValueError(f"zeno_window must be at least 3 (got {self.zeno_window})")
         if not isinstance(self.max_refine, int) or self.max_refine < 0:
             raise ValueError(f"max_refine must be a non-negative integer (got {self.max_refine!r})")
+        if self.backend not in BACKENDS:
+            raise ValueError(f"backend must be one of {', '.join(BACKENDS)} "
+                             f"(got {self.backend!r})")
         if self.zeno not in _ZENO_POLICIES:
             raise ValueError(f"zeno must be one of {_ZENO_POLICIES} (got {self.zeno!r})")
 

@@ -1,0 +1,293 @@
+"""The compiled backend: generated model module, disk cache, kernel call, result.
+
+A model is printed to Python source by :mod:`.codegen`, written once to the
+cache directory (``$HYBRIDLAB_CACHE_DIR`` or ``~/.cache/hybridlab``) under a
+name derived from the hash of the source and of the numba version, and
+imported; its numba ``cfunc`` is compiled with ``cache=True``, so a second
+process loads machine code from disk. The kernel (:mod:`.kernel`) is
+compiled once per machine for every model.
+
+:func:`run` calls the kernel and turns its records into the same
+:class:`~hybridlab.simulation.result.SimulationResult` as the reference
+engine. When the kernel hands off (sliding, an invariant violation, ...),
+the run is repeated by the reference engine, and ``result.stats["backend"]``
+says which backend produced the result.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import os
+import sys
+import weakref
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType
+
+import numba
+import numpy as np
+
+from hybridlab.errors import ZenoError
+from hybridlab.simulation import engine
+from hybridlab.simulation.compiled.codegen import ModelSource, UnsupportedModel, generate
+from hybridlab.simulation.compiled.integrate import METHOD_CODES
+from hybridlab.simulation.compiled.kernel import COMPLETED, HANDOFF, MAX_EVENTS, ZENO, run_kernel
+from hybridlab.simulation.options import SimulationOptions
+from hybridlab.simulation.result import Event, FinalState, Segment, SimulationResult, Status
+from hybridlab.simulation.zeno import ZenoVerdict
+from hybridlab.symbolic.compile import CompiledModel
+
+__all__ = ["cache_dir", "prepare", "run", "Prepared", "StepInterpolants"]
+
+
+def cache_dir() -> Path:
+    """Where generated model modules live: ``$HYBRIDLAB_CACHE_DIR`` or ``~/.cache/hybridlab``.
+
+    Examples
+    --------
+    >>> cache_dir().name in ("hybridlab", os.environ.get("HYBRIDLAB_CACHE_DIR", "x")[-9:]) or True
+    True
+    """
+    env = os.environ.get("HYBRIDLAB_CACHE_DIR")
+    return Path(env) if env else Path.home() / ".cache" / "hybridlab"
+
+
+class StepInterpolants(Sequence):
+    """The dense output of a segment's steps, one callable per step (like scipy's).
+
+    Examples
+    --------
+    >>> ST = np.array([[0.0, 1.0, 2.0, 1.0, 0.0, 0.0, 0.0]])  # y' = 1 from y = 2, RK45 form
+    >>> StepInterpolants(0, 1, ST)[0](0.5)
+    array([2.5])
+    """
+
+    def __init__(self, method: int, n: int, rows: np.ndarray) -> None:
+        self.method, self.n, self.rows = method, n, rows
+
+    def __len__(self) -> int:
+        return self.rows.shape[0]
+
+    def __getitem__(self, i):  # noqa: ANN001 - Sequence protocol
+        if isinstance(i, slice):
+            return [self[k] for k in range(*i.indices(len(self)))]
+        return _StepInterpolant(self.method, self.n, self.rows[i])
+
+
+class _StepInterpolant:
+    def __init__(self, method: int, n: int, row: np.ndarray) -> None:
+        self.t_old, self.h = float(row[0]), float(row[1])
+        self.t_min, self.t_max = sorted((self.t_old, self.t_old + self.h))
+        self.y_old = row[2:2 + n]
+        self.coef = row[2 + n:].reshape(-1, n)
+        self.method = method
+
+    def __call__(self, t: float | np.ndarray) -> np.ndarray:
+        t = np.asarray(t, dtype=float)
+        x = ((t - self.t_old) / self.h)[..., None]
+        if self.method == METHOD_CODES["RK45"]:
+            acc = np.zeros(x.shape[:-1] + (self.y_old.size,))
+            pw = np.ones_like(x)
+            for c in self.coef:
+                pw = pw * x
+                acc = acc + c * pw
+            y = self.h * acc + self.y_old
+        else:
+            y = np.zeros(x.shape[:-1] + (self.y_old.size,))
+            for k, c in enumerate(self.coef[::-1]):
+                y = (y + c) * (x if k % 2 == 0 else 1 - x)
+            y = y + self.y_old
+        return y.T
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """A model ready for the kernel: its module and static tables."""
+
+    source: ModelSource
+    module: ModuleType
+    cache_hit: bool
+    ints: tuple[np.ndarray, ...]
+    mode_names: tuple[str, ...]
+    switch_keys: tuple[str, ...]
+    n_sig: int
+
+
+_PREPARED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # per-model memo
+
+
+def _import(source: ModelSource) -> tuple[ModuleType, bool]:
+    digest = hashlib.sha256((source.text + numba.__version__).encode()).hexdigest()[:20]
+    name = f"hybridlab_model_{digest}"
+    if name in sys.modules:
+        return sys.modules[name], True
+    directory = cache_dir()
+    directory.mkdir(parents=True, exist_ok=True)
+    path = directory / f"{name}.py"
+    if not path.exists() or path.read_text() != source.text:
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(source.text)
+        os.replace(tmp, path)
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    hit = bool(getattr(module.model, "cache_hits", 0))
+    return module, hit
+
+
+def prepare(compiled: CompiledModel) -> Prepared:
+    """Generate, cache and load the compiled form of ``compiled`` (memoised per model).
+
+    Raises
+    ------
+    UnsupportedModel
+        When the model cannot be printed for numba.
+    """
+    if compiled in _PREPARED:
+        return _PREPARED[compiled]
+    source = generate(compiled)
+    module, hit = _import(source)
+    modes = list(compiled.modes.values())
+    index = {name: i for i, name in enumerate(compiled.modes)}
+    n_tr = len(compiled.transitions)
+    n_sig = max((len(md.switches) for md in modes), default=0)
+    keys: dict[str, int] = {}
+    sw_key = np.zeros(len(modes) * max(n_sig, 1), dtype=np.int64)
+    for m, md in enumerate(modes):
+        for k, sw in enumerate(md.switches):
+            sw_key[m * max(n_sig, 1) + k] = n_tr + keys.setdefault(sw.text, len(keys))
+    out_ptr, out_list = [0], []
+    for md in modes:
+        out_list += [tr.index for tr in md.outgoing]
+        out_ptr.append(len(out_list))
+    monitored = np.zeros(2 * max(n_tr, 1), dtype=np.int64)
+    for tr in compiled.transitions:
+        if tr.guard is not None:
+            monitored[max(n_tr, 1) + tr.index] = tr.guard.size
+            monitored[tr.index] = int(not tr.scheduled)
+    ints = tuple(np.ascontiguousarray(a, dtype=np.int64) for a in (
+        source.flow_group, source.cond_group, source.switch_group,
+        [md.invariant_offset for md in modes], [md.invariants.size for md in modes],
+        [len(md.switches) for md in modes], [int(md.affine_in_sigma) for md in modes],
+        out_ptr, out_list or [0], [index[tr.target] for tr in compiled.transitions] or [0],
+        list(source.guard_group) or [0], monitored,
+        [int(tr.scheduled) for tr in compiled.transitions] or [0],
+        [0] * max(n_tr, 1), list(source.reset_group) or [0], sw_key,
+        [md.conditions.size if md.conditions is not None else 0 for md in modes]))
+    prepared = Prepared(source, module, hit, ints, tuple(compiled.modes), tuple(keys), n_sig)
+    _PREPARED[compiled] = prepared
+    return prepared
+
+
+def _fallback(compiled: CompiledModel, reason: str, **kw) -> SimulationResult:
+    result = engine.run(compiled, **kw)
+    stats = {**result.stats, "backend": "reference", "fallback": reason}
+    return SimulationResult(result.status, result.message, result.events, result.segments,
+                            result.final, result.state_names, result.zeno_time, stats,
+                            result.parameters, result.compiled)
+
+
+def run(compiled: CompiledModel, *, t0: float, x0: np.ndarray, mode: str, t_end: float,
+        p: np.ndarray, options: SimulationOptions) -> SimulationResult:
+    """Simulate with the compiled kernel (see ``hybridlab.simulate``)."""
+    kw = {"t0": t0, "x0": x0, "mode": mode, "t_end": t_end, "p": p, "options": options}
+    o = options
+    if o.method not in METHOD_CODES:
+        return _fallback(compiled, f"method {o.method} runs on the reference backend", **kw)
+    if len(compiled.state_names) == 0:
+        return _fallback(compiled, "a model without states", **kw)
+    try:
+        prep = prepare(compiled)
+    except UnsupportedModel as exc:
+        return _fallback(compiled, f"unsupported model: {exc}", **kw)
+    ints = list(prep.ints)
+    n_tr = len(compiled.transitions)
+    period = np.ones(max(n_tr, 1))
+    phase = np.zeros(max(n_tr, 1))
+    sched_on = np.zeros(max(n_tr, 1), dtype=np.int64)
+    for tr in compiled.transitions:
+        sched = tr.period_and_phase(p)
+        if sched is not None:
+            period[tr.index], phase[tr.index] = sched
+            sched_on[tr.index] = 1
+    ints[13] = sched_on
+    method = METHOD_CODES[o.method]
+    opts_i = np.array([method, o.samples_per_step, o.max_refine, o.max_events,
+                       o.max_event_iterations, o.zeno_window], dtype=np.int64)
+    opts_f = np.array([o.rtol, o.atol, o.max_step, o.event_tol, o.event_atol, o.zeno_tol])
+    n_keys = n_tr + len(prep.switch_keys)
+    ztimes = np.zeros((max(n_keys, 1), o.zeno_window + 1))
+    zcount = np.zeros(max(n_keys, 1), dtype=np.int64)
+    sched_done = np.full(max(n_tr, 1), -1, dtype=np.int64)
+    m0 = prep.mode_names.index(mode)
+    (code, EV, PT, ST, SG, kstats, info, last_t, last_x, last_m, j,
+     _h_last) = run_kernel(prep.module.model, tuple(ints), (period, phase), opts_i, opts_f,
+                           float(t0), np.ascontiguousarray(x0, dtype=float), m0, float(t_end),
+                           np.ascontiguousarray(p, dtype=float), prep.n_sig, ztimes, zcount,
+                           sched_done)
+    if code == HANDOFF:
+        return _fallback(compiled, "the kernel handed the run to the reference engine "
+                                   "(sliding, an invariant violation or another rare case)", **kw)
+    return _result(compiled, prep, o, code, EV, PT, ST, SG, kstats, info, last_t, last_x,
+                   last_m, j, p, float(t_end))
+
+
+def _result(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, code: int,
+            EV: np.ndarray, PT: np.ndarray, ST: np.ndarray, SG: np.ndarray, kstats: np.ndarray,
+            info: np.ndarray, last_t: float, last_x: np.ndarray, last_m: int, j: int,
+            p: np.ndarray, t_end: float) -> SimulationResult:
+    names = compiled.state_names
+    n = len(names)
+    modes = prep.mode_names
+    transitions = compiled.transitions
+    cmodes = list(compiled.modes.values())
+    events = []
+    for row in EV:
+        pre = dict(zip(names, row[7:7 + n].tolist(), strict=True))
+        post = dict(zip(names, row[7 + n:].tolist(), strict=True))
+        src, tgt = modes[int(row[3])], modes[int(row[4])]
+        if row[5] == 0:
+            label, kind = transitions[int(row[2])].name, "jump"
+        else:
+            label, kind = cmodes[int(row[3])].switches[int(row[2])].text, "crossing"
+        events.append(Event(float(row[0]), int(row[1]), label, src, tgt, pre, post, kind,
+                            bool(row[6])))
+    method = METHOD_CODES[o.method]
+    segments = []
+    for mode_i, seg_j, p0, npt, s0, nst in SG.tolist():
+        pts = PT[p0:p0 + npt]
+        segments.append(Segment(modes[mode_i], seg_j, pts[:, 0].copy(),
+                                np.ascontiguousarray(pts[:, 1:].T),
+                                StepInterpolants(method, n, ST[s0:s0 + nst])))
+    t, x, mode = float(last_t), np.asarray(last_x), modes[int(last_m)]
+    if not segments or segments[-1].t_end < t or segments[-1].j != j:
+        segments.append(Segment(mode, int(j), np.array([t]), x[:, None].copy()))
+    zeno_time = None
+    if code == COMPLETED:
+        status, message = Status.COMPLETED, f"reached t_end = {t_end!r}"
+    elif code == MAX_EVENTS:
+        status, message = Status.MAX_EVENTS, f"{len(events)} events logged by t = {events[-1].t!r}"
+    elif code == ZENO:
+        key = int(info[0])
+        n_tr = len(transitions)
+        label = transitions[key].name if key < n_tr else f"switch:{prep.switch_keys[key - n_tr]}"
+        verdict = ZenoVerdict(label, int(info[1]), float(info[2]), float(info[3]))
+        text = verdict.describe()
+        if key >= n_tr:
+            text = f"the discontinuity {prep.switch_keys[key - n_tr]} chatters: {text}"
+        if o.zeno == "error":
+            raise ZenoError(f"Zeno behaviour: {text}")
+        status, message, zeno_time = Status.ZENO, text, float(info[3])
+    else:  # pragma: no cover - the kernel returns only the codes above
+        raise RuntimeError(f"unknown kernel code {code}")
+    stats = {"steps": int(kstats[0]), "refinements": int(kstats[1]),
+             "events_located": int(kstats[2]), "segments": int(kstats[3]),
+             "backend": "compiled", "compiled_cache_hit": prep.cache_hit}
+    final = FinalState(t, int(j), mode, dict(zip(names, map(float, x), strict=True)))
+    parameters = dict(zip(compiled.parameter_names, map(float, p), strict=True))
+    return SimulationResult(status, message, tuple(events), tuple(segments), final, names,
+                            zeno_time, stats, parameters, compiled)
+

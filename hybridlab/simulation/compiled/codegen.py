@@ -1,0 +1,203 @@
+"""Python source of one model's numeric functions, for numba.
+
+Every flow, condition row (guards, then invariants), switching function,
+their Lie derivatives, every reset and every transition guard is printed
+from its sympy expression (with common-subexpression elimination) into the
+body of a single scalar-loop function::
+
+    model(op, group, t, x, p, sigma, f, out)
+
+``op`` selects the kind of function (:data:`OP_FLOW` ...), ``group`` which
+one (modes and transitions that share a function share a group). All array
+arguments are raw ``float64`` pointers, so the kernel of
+:mod:`hybridlab.simulation.compiled.kernel` is compiled once for every model
+and calls the model through one first-class function pointer. The source is
+written from sympy expressions only; model text never reaches ``eval``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import sympy as sp
+from sympy.printing.pycode import PythonCodePrinter
+
+from hybridlab.model.checks import TIME
+from hybridlab.symbolic.compile import CompiledModel
+
+__all__ = ["OP_FLOW", "OP_COND", "OP_COND_LIE", "OP_SWITCH", "OP_SWITCH_LIE", "OP_RESET",
+           "OP_GUARD", "OP_GUARD_LIE", "ModelSource", "UnsupportedModel", "generate"]
+
+OP_FLOW, OP_COND, OP_COND_LIE, OP_SWITCH, OP_SWITCH_LIE, OP_RESET, OP_GUARD, OP_GUARD_LIE = \
+    range(8)
+
+
+class UnsupportedModel(Exception):
+    """The model uses something the printer cannot turn into numba code."""
+
+
+class _Printer(PythonCodePrinter):
+    def _print_sign(self, expr: sp.Expr) -> str:
+        arg = self._print(expr.args[0])
+        return f"_sign({arg})"
+
+    def _print_Min(self, expr: sp.Expr) -> str:
+        return "min(" + ", ".join(f"float({self._print(a)})" for a in expr.args) + ")"
+
+    def _print_Max(self, expr: sp.Expr) -> str:
+        return "max(" + ", ".join(f"float({self._print(a)})" for a in expr.args) + ")"
+
+
+@dataclass(frozen=True)
+class ModelSource:
+    """The generated source and the group tables the kernel needs.
+
+    Attributes
+    ----------
+    text : str
+        Python source of a module defining ``model``.
+    flow_group, cond_group, switch_group : tuple of int
+        Per mode (in ``compiled.modes`` order): the group of its flow,
+        conditions (-1: none) and switching functions (-1: none).
+    reset_group, guard_group : tuple of int
+        Per transition: the group of its reset and of its guard (-1: none).
+    """
+
+    text: str
+    flow_group: tuple[int, ...]
+    cond_group: tuple[int, ...]
+    switch_group: tuple[int, ...]
+    reset_group: tuple[int, ...]
+    guard_group: tuple[int, ...]
+
+
+def _body(exprs: Sequence[sp.Expr], names: dict[sp.Symbol, str], indent: str) -> list[str]:
+    """Assignments ``out[i] = ...`` of ``exprs`` after CSE, reading only the symbols used."""
+    exprs = [sp.Integer(0) + e for e in exprs]
+    used = set().union(*(e.free_symbols for e in exprs)) if exprs else set()
+    printer = _Printer({"fully_qualified_modules": True, "standard": "python3"})
+    lines = []
+    for sym in sorted(used, key=lambda s: names.get(s, s.name)):
+        if sym not in names:
+            raise UnsupportedModel(f"symbol {sym.name!r} is not an argument")
+        lines.append(f"{indent}{_local(sym, names)} = {names[sym]}")
+    replacements, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("_c"))
+    local = {s: _local(s, names) for s in used}
+
+    def text(e: sp.Expr) -> str:
+        out = printer.doprint(e.xreplace({s: sp.Symbol(v) for s, v in local.items()}))
+        if "Not supported" in out or "\n" in out:
+            raise UnsupportedModel(f"cannot compile {e}")
+        return out
+
+    for sym, e in replacements:
+        lines.append(f"{indent}{sym.name} = {text(e)}")
+    for i, e in enumerate(reduced):
+        lines.append(f"{indent}out[{i}] = {text(e)}")
+    return lines
+
+
+def _local(sym: sp.Symbol, names: dict[sp.Symbol, str]) -> str:
+    return "_v_" + names[sym].replace("[", "").replace("]", "")
+
+
+class _Groups:
+    """Unique expression tuples, each one branch of one op."""
+
+    def __init__(self) -> None:
+        self.keys: dict[tuple, int] = {}
+        self.bodies: list[tuple[tuple[sp.Expr, ...], dict]] = []
+
+    def add(self, exprs: Sequence[sp.Expr], names: dict,
+            lie: tuple[_Groups, Sequence[sp.Expr], dict] | None = None) -> int:
+        """The group of ``exprs``; a new group also adds its Lie derivative to ``lie``."""
+        key = tuple(exprs)
+        if key not in self.keys:
+            self.keys[key] = len(self.bodies)
+            self.bodies.append((key, names))
+            if lie is not None:  # same index as its value group
+                lie[0].bodies.append((tuple(lie[1]), lie[2]))
+        return self.keys[key]
+
+
+def generate(compiled: CompiledModel) -> ModelSource:
+    """Print the numeric functions of ``compiled`` as one numba-ready module.
+
+    Raises
+    ------
+    UnsupportedModel
+        When an expression cannot be printed (the caller falls back to the
+        reference backend).
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> src = generate(hybridlab.compile_model(hybridlab.load_model("models/thermostat.toml")))
+    >>> src.flow_group, src.cond_group
+    ((0, 1), (0, 1))
+    >>> "def model(op, group, t, x, p, sigma, f, out):" in src.text
+    True
+    """
+    sym = compiled.symbolic
+    base: dict[sp.Symbol, str] = {TIME: "t"}
+    base.update({s: f"x[{i}]" for i, s in enumerate(sym.states)})
+    base.update({s: f"p[{i}]" for i, s in enumerate(sym.parameters)})
+    flow_syms = [sp.Symbol(f"_f{i}", real=True) for i in range(len(sym.states))]
+    with_f = {**base, **{s: f"f[{i}]" for i, s in enumerate(flow_syms)}}
+    ops = [_Groups() for _ in range(8)]
+    flow_g, cond_g, switch_g = [], [], []
+    for mode in compiled.modes.values():
+        sig = {s.symbol: f"sigma[{k}]" for k, s in enumerate(mode.switches)}
+        flow_g.append(ops[OP_FLOW].add(mode.flow.exprs, {**base, **sig}))
+        if mode.conditions is not None and mode.conditions.size:
+            cond_g.append(ops[OP_COND].add(
+                mode.conditions.values.exprs, base,
+                (ops[OP_COND_LIE], mode.conditions._lie.exprs, with_f)))
+        else:
+            cond_g.append(-1)
+        if mode.switches:
+            switch_g.append(ops[OP_SWITCH].add(
+                mode.switch_fields.values.exprs, {**base, **sig},
+                (ops[OP_SWITCH_LIE], mode.switch_fields._lie.exprs, {**with_f, **sig})))
+        else:
+            switch_g.append(-1)
+    reset_g, guard_g = [], []
+    for tr in compiled.transitions:
+        reset_g.append(ops[OP_RESET].add(tr.reset.exprs, base))
+        if tr.guard is not None:
+            guard_g.append(ops[OP_GUARD].add(tr.guard.values.exprs, base,
+                                             (ops[OP_GUARD_LIE], tr.guard._lie.exprs, with_f)))
+        else:
+            guard_g.append(-1)
+    lines = [
+        '"""Generated by hybridlab.simulation.compiled.codegen; do not edit."""',
+        "import math",
+        "",
+        "import numba",
+        "",
+        "from hybridlab.simulation.compiled.signatures import MODEL_SIGNATURE",
+        "",
+        "",
+        "@numba.njit(inline='always')",
+        "def _sign(v):",
+        "    return 0.0 if v == 0 else math.copysign(1.0, v)",
+        "",
+        "",
+        "@numba.cfunc(MODEL_SIGNATURE, cache=True, error_model='numpy')",
+        "def model(op, group, t, x, p, sigma, f, out):",
+    ]
+    first_op = True
+    for op, groups in enumerate(ops):
+        if not groups.bodies:
+            continue
+        lines.append(f"    {'if' if first_op else 'elif'} op == {op}:")
+        first_op = False
+        for g, (exprs, names) in enumerate(groups.bodies):
+            lines.append(f"        {'if' if g == 0 else 'elif'} group == {g}:")
+            body = _body(exprs, names, " " * 12)
+            lines.extend(body or ["            pass"])
+    if first_op:
+        lines.append("    pass")
+    return ModelSource("\n".join(lines) + "\n", tuple(flow_g), tuple(cond_g), tuple(switch_g),
+                       tuple(reset_g), tuple(guard_g))

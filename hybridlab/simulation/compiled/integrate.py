@@ -1,0 +1,243 @@
+"""Explicit Runge-Kutta steps (RK45, DOP853) with dense output, in numba.
+
+A line-by-line port of scipy's ``RungeKutta._step_impl`` and dense output
+(same coefficients, same step-size control, same error norms), so that
+``rtol``/``atol`` mean exactly what they mean for the reference backend and
+both backends take the same steps.
+"""
+
+# ruff: noqa: SIM108 - kept line by line with the scipy / reference code it ports
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+from numba import types
+from numba.extending import intrinsic
+from scipy.integrate._ivp import dop853_coefficients as _dop
+from scipy.integrate._ivp.rk import RK45 as _RK45
+
+__all__ = ["RK45", "DOP853", "METHOD_CODES", "ptr", "rk_step", "dense_coefficients",
+           "dense_eval", "initial_step"]
+
+RK45, DOP853 = 0, 1
+#: method name -> kernel code
+METHOD_CODES = {"RK45": RK45, "DOP853": DOP853}
+
+_SAFETY, _MIN_FACTOR, _MAX_FACTOR = 0.9, 0.2, 10.0
+
+_RK_A = np.ascontiguousarray(_RK45.A, dtype=np.float64)
+_RK_B = np.ascontiguousarray(_RK45.B, dtype=np.float64)
+_RK_C = np.ascontiguousarray(_RK45.C, dtype=np.float64)
+_RK_E = np.ascontiguousarray(_RK45.E, dtype=np.float64)
+_RK_P = np.ascontiguousarray(_RK45.P, dtype=np.float64)
+_DP_N = _dop.N_STAGES
+_DP_A = np.ascontiguousarray(_dop.A, dtype=np.float64)
+_DP_B = np.ascontiguousarray(_dop.B, dtype=np.float64)
+_DP_C = np.ascontiguousarray(_dop.C, dtype=np.float64)
+_DP_E3 = np.ascontiguousarray(_dop.E3, dtype=np.float64)
+_DP_E5 = np.ascontiguousarray(_dop.E5, dtype=np.float64)
+_DP_D = np.ascontiguousarray(_dop.D, dtype=np.float64)
+
+#: stages (rows of K) and dense-output coefficient rows per method
+N_K = (_RK_A.shape[0] + 1, _dop.N_STAGES_EXTENDED)
+N_COEF = (_RK_P.shape[1], _dop.INTERPOLATOR_POWER)
+
+
+@intrinsic
+def ptr(typingctx, arr):  # noqa: ARG001 - numba intrinsic protocol
+    """The data pointer of a contiguous array (to call a generated model)."""
+    sig = types.CPointer(arr.dtype)(arr)
+
+    def codegen(context, builder, signature, args):
+        return context.make_array(arr)(context, builder, args[0]).data
+
+    return sig, codegen
+
+
+@numba.njit(cache=True)
+def _rms(v: np.ndarray) -> float:
+    return np.linalg.norm(v) / v.size ** 0.5
+
+
+@numba.njit(cache=True)
+def initial_step(model, fg, t0, y0, f0, t_bound, max_step, order, rtol, atol, p, sig, dummy):
+    """scipy's ``select_initial_step``."""
+    interval = abs(t_bound - t0)
+    if interval == 0.0:
+        return 0.0
+    scale = atol + np.abs(y0) * rtol
+    d0 = _rms(y0 / scale)
+    d1 = _rms(f0 / scale)
+    if d0 < 1e-5 or d1 < 1e-5:
+        h0 = 1e-6
+    else:
+        h0 = 0.01 * d0 / d1
+    h0 = min(h0, interval)
+    y1 = y0 + h0 * f0
+    f1 = np.empty_like(y0)
+    model(0, fg, t0 + h0, ptr(y1), ptr(p), ptr(sig), ptr(dummy), ptr(f1))
+    d2 = _rms((f1 - f0) / scale) / h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / (order + 1))
+    return min(100 * h0, h1, interval, max_step)
+
+
+@numba.njit(cache=True)
+def _stages(model, method, fg, t, y, f, h, p, sig, dummy, K, y_new, f_new, tmp):
+    """One Runge-Kutta step (``rk_step``): stages into ``K``, result into y_new, f_new."""
+    n = y.size
+    if method == RK45:
+        A, B, C = _RK_A, _RK_B, _RK_C
+        ns = A.shape[0]
+    else:
+        A, B, C = _DP_A, _DP_B, _DP_C
+        ns = _DP_N
+    K[0, :] = f
+    for s in range(1, ns):
+        for i in range(n):
+            acc = 0.0
+            for r in range(s):
+                acc += K[r, i] * A[s, r]
+            tmp[i] = y[i] + acc * h
+        model(0, fg, t + C[s] * h, ptr(tmp), ptr(p), ptr(sig), ptr(dummy), ptr(K[s]))
+    for i in range(n):
+        acc = 0.0
+        for r in range(ns):
+            acc += K[r, i] * B[r]
+        y_new[i] = y[i] + h * acc
+    model(0, fg, t + h, ptr(y_new), ptr(p), ptr(sig), ptr(dummy), ptr(f_new))
+    K[ns, :] = f_new
+
+
+@numba.njit(cache=True)
+def _error_norm(method, K, h, scale):
+    n = scale.size
+    if method == RK45:
+        E = _RK_E
+        acc = 0.0
+        for i in range(n):
+            e = 0.0
+            for r in range(E.size):
+                e += K[r, i] * E[r]
+            v = e * h / scale[i]
+            acc += v * v
+        return np.sqrt(acc) / n ** 0.5
+    e5n = 0.0
+    e3n = 0.0
+    for i in range(n):
+        e5 = 0.0
+        e3 = 0.0
+        for r in range(_DP_N + 1):
+            e5 += K[r, i] * _DP_E5[r]
+            e3 += K[r, i] * _DP_E3[r]
+        e5 /= scale[i]
+        e3 /= scale[i]
+        e5n += e5 * e5
+        e3n += e3 * e3
+    if e5n == 0 and e3n == 0:
+        return 0.0
+    denom = e5n + 0.01 * e3n
+    return abs(h) * e5n / np.sqrt(denom * n)
+
+
+@numba.njit(cache=True)
+def rk_step(model, method, fg, t, y, f, t_bound, h_abs_in, max_step, rtol, atol, p, sig,
+            dummy, K, y_new, f_new, tmp):
+    """scipy's ``_step_impl``; returns ``(ok, t_new, h_abs_next, h)``."""
+    order_err = 4 if method == RK45 else 7
+    exponent = -1.0 / (order_err + 1)
+    min_step = 10 * abs(np.nextafter(t, np.inf) - t)
+    if h_abs_in > max_step:
+        h_abs = max_step
+    elif h_abs_in < min_step:
+        h_abs = min_step
+    else:
+        h_abs = h_abs_in
+    rejected = False
+    n = y.size
+    scale = np.empty(n)
+    while True:
+        if h_abs < min_step:
+            return False, t, h_abs, 0.0
+        h = h_abs
+        t_new = t + h
+        if t_new - t_bound > 0:
+            t_new = t_bound
+        h = t_new - t
+        h_abs = abs(h)
+        _stages(model, method, fg, t, y, f, h, p, sig, dummy, K, y_new, f_new, tmp)
+        for i in range(n):
+            scale[i] = atol + max(abs(y[i]), abs(y_new[i])) * rtol
+        err = _error_norm(method, K, h, scale)
+        if err < 1:
+            if err == 0:
+                factor = _MAX_FACTOR
+            else:
+                factor = min(_MAX_FACTOR, _SAFETY * err ** exponent)
+            if rejected:
+                factor = min(1.0, factor)
+            h_abs *= factor
+            return True, t_new, h_abs, h
+        h_abs *= max(_MIN_FACTOR, _SAFETY * err ** exponent)
+        rejected = True
+
+
+@numba.njit(cache=True)
+def dense_coefficients(model, method, fg, t_old, h, y_old, y, f, p, sig, dummy, K, tmp, coef):
+    """Interpolant of the last step into ``coef`` (``Q.T`` for RK45, ``F`` for DOP853)."""
+    n = y.size
+    if method == RK45:
+        P = _RK_P
+        for j in range(P.shape[1]):
+            for i in range(n):
+                acc = 0.0
+                for r in range(K.shape[0]):
+                    acc += K[r, i] * P[r, j]
+                coef[j, i] = acc
+        return
+    for s in range(_DP_N + 1, K.shape[0]):
+        for i in range(n):
+            acc = 0.0
+            for r in range(s):
+                acc += K[r, i] * _DP_A[s, r]
+            tmp[i] = y_old[i] + acc * h
+        model(0, fg, t_old + _DP_C[s] * h, ptr(tmp), ptr(p), ptr(sig), ptr(dummy), ptr(K[s]))
+    for i in range(n):
+        dy = y[i] - y_old[i]
+        coef[0, i] = dy
+        coef[1, i] = h * K[0, i] - dy
+        coef[2, i] = 2 * dy - h * (f[i] + K[0, i])
+        for j in range(_DP_D.shape[0]):
+            acc = 0.0
+            for r in range(K.shape[0]):
+                acc += _DP_D[j, r] * K[r, i]
+            coef[3 + j, i] = h * acc
+
+
+@numba.njit(cache=True)
+def dense_eval(method, coef, t_old, h, y_old, t, out):
+    """The step's interpolant at ``t`` into ``out``."""
+    x = (t - t_old) / h
+    n = y_old.size
+    if method == RK45:
+        for i in range(n):
+            acc = 0.0
+            pw = 1.0
+            for j in range(coef.shape[0]):
+                pw *= x
+                acc += coef[j, i] * pw
+            out[i] = h * acc + y_old[i]
+        return
+    m = coef.shape[0]
+    for i in range(n):
+        acc = 0.0
+        for k in range(m):
+            acc += coef[m - 1 - k, i]
+            if k % 2 == 0:
+                acc *= x
+            else:
+                acc *= 1 - x
+        out[i] = acc + y_old[i]

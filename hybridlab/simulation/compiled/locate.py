@@ -1,0 +1,539 @@
+"""Event location on the dense output, in numba: a port of ``simulation/location.py``.
+
+Monitors of the current mode are evaluated at points of one step's dense
+output through the generated model function. ``sample_step``,
+``first_trigger`` and the root finders follow the reference module line by
+line (Brent's ``brentq`` and the bounded Brent minimiser of
+``scipy.optimize.minimize_scalar`` are ported), so both backends fire the
+same monitors at the same instants.
+"""
+
+# ruff: noqa: SIM109 - kept line by line with the scipy / reference code it ports
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from hybridlab.simulation.compiled.integrate import dense_eval, ptr
+
+__all__ = ["monitors_at", "monitor_value", "sample_step", "scan"]
+
+OP_FLOW, OP_COND, OP_COND_LIE, OP_SWITCH, OP_SWITCH_LIE = 0, 1, 2, 3, 4
+GUARD, INVARIANT, SWITCH = 0, 1, 2
+_CHECK_AT = 0.41421356237309515
+_EPS = np.finfo(np.float64).eps
+
+
+@numba.njit(cache=True)
+def monitors_at(model, md, p, sig, ws, t, x, phi, dphi, col):
+    """Every monitor's value and slope at ``(t, x)`` into column ``col``."""
+    fg, cg, sg, mk, mref, mstart, mlen = md
+    xs, f, cv, cd, sv, sd, dummy = ws
+    model(OP_FLOW, fg, t, ptr(x), ptr(p), ptr(sig), ptr(dummy), ptr(f))
+    if cg >= 0:
+        model(OP_COND, cg, t, ptr(x), ptr(p), ptr(sig), ptr(dummy), ptr(cv))
+        model(OP_COND_LIE, cg, t, ptr(x), ptr(p), ptr(sig), ptr(f), ptr(cd))
+    if sg >= 0:
+        model(OP_SWITCH, sg, t, ptr(x), ptr(p), ptr(sig), ptr(dummy), ptr(sv))
+        model(OP_SWITCH_LIE, sg, t, ptr(x), ptr(p), ptr(sig), ptr(f), ptr(sd))
+    for r in range(mk.size):
+        kind = mk[r]
+        if kind == GUARD:
+            i = mstart[r]
+            for q in range(mstart[r] + 1, mstart[r] + mlen[r]):
+                if cv[q] < cv[i]:
+                    i = q
+            phi[r, col] = -cv[i]
+            dphi[r, col] = -cd[i]
+        elif kind == INVARIANT:
+            phi[r, col] = cv[mstart[r]]
+            dphi[r, col] = cd[mstart[r]]
+        else:
+            k = mref[r]
+            phi[r, col] = sig[k] * sv[k]
+            dphi[r, col] = sig[k] * sd[k]
+
+
+@numba.njit(cache=True)
+def monitor_value(model, md, p, sig, ws, step, r, t):
+    """One monitor's value at time ``t`` of the step (the root finders' inner loop)."""
+    fg, cg, sg, mk, mref, mstart, mlen = md
+    xs, f, cv, cd, sv, sd, dummy = ws
+    method, coef, t_old, h, y_old = step
+    dense_eval(method, coef, t_old, h, y_old, t, xs)
+    kind = mk[r]
+    if kind == SWITCH:
+        model(OP_SWITCH, sg, t, ptr(xs), ptr(p), ptr(sig), ptr(dummy), ptr(sv))
+        return sig[mref[r]] * sv[mref[r]]
+    model(OP_COND, cg, t, ptr(xs), ptr(p), ptr(sig), ptr(dummy), ptr(cv))
+    if kind == INVARIANT:
+        return cv[mstart[r]]
+    best = cv[mstart[r]]
+    for q in range(mstart[r] + 1, mstart[r] + mlen[r]):
+        if cv[q] < best:
+            best = cv[q]
+    return -best
+
+
+@numba.njit(cache=True)
+def _batch(model, md, p, sig, ws, step, times, T, PHI, DPHI, n0):
+    method, coef, t_old, h, y_old = step
+    xs = ws[0]
+    for i in range(times.size):
+        dense_eval(method, coef, t_old, h, y_old, times[i], xs)
+        T[n0 + i] = times[i]
+        monitors_at(model, md, p, sig, ws, times[i], xs, PHI, DPHI, n0 + i)
+
+
+@numba.njit(cache=True)
+def _grow(T, PHI, DPHI, need):
+    if need <= T.size:
+        return T, PHI, DPHI
+    cap = max(need, 2 * T.size)
+    T2 = np.empty(cap)
+    P2 = np.empty((PHI.shape[0], cap))
+    D2 = np.empty((PHI.shape[0], cap))
+    T2[:T.size] = T
+    P2[:, :T.size] = PHI
+    D2[:, :T.size] = DPHI
+    return T2, P2, D2
+
+
+@numba.njit(cache=True)
+def _sgn(v):
+    return 0.0 if v == 0 else (1.0 if v > 0 else (-1.0 if v < 0 else v))
+
+
+@numba.njit(cache=True)
+def sample_step(model, md, p, sig, ws, step, t0, t1, samples, max_refine, tol):
+    """Samples of every monitor on ``[t0, t1]``, refined until resolved (see location.py)."""
+    M = md[3].size
+    cap = 4 * (samples + 1)
+    T = np.empty(cap)
+    PHI = np.empty((M, cap))
+    DPHI = np.empty((M, cap))
+    grid = np.empty(samples + 1)
+    delta = (t1 - t0) / samples
+    for i in range(samples + 1):
+        grid[i] = i * delta + t0
+    grid[samples] = t1
+    _batch(model, md, p, sig, ws, step, grid, T, PHI, DPHI, 0)
+    nk = samples + 1
+    a_idx = np.arange(samples)
+    b_idx = np.arange(1, samples + 1)
+    refinements = 0
+    q = _CHECK_AT
+    for level in range(max_refine + 1):
+        K = a_idx.size
+        if M == 0 or K == 0:
+            break
+        c_t = np.empty(K)
+        for k in range(K):
+            c_t[k] = T[a_idx[k]] + q * (T[b_idx[k]] - T[a_idx[k]])
+        T, PHI, DPHI = _grow(T, PHI, DPHI, nk + K)
+        _batch(model, md, p, sig, ws, step, c_t, T, PHI, DPHI, nk)
+        c0 = nk
+        nk += K
+        if level == max_refine:
+            break
+        split = np.zeros(K, dtype=np.bool_)
+        for k in range(K):
+            a, b, c = a_idx[k], b_idx[k], c0 + k
+            h = T[b] - T[a]
+            for r in range(M):
+                fa, fb, da, db = PHI[r, a], PHI[r, b], DPHI[r, a], DPHI[r, b]
+                k1 = h * da
+                k2 = 3.0 * (fb - fa) - h * (2.0 * da + db)
+                k3 = 2.0 * (fa - fb) + h * (da + db)
+                predicted = fa + q * (k1 + q * (k2 + q * k3))
+                slope = (k1 + q * (2.0 * k2 + 3.0 * q * k3)) / (h if h > 0 else 1.0)
+                fc, dc = PHI[r, c], DPHI[r, c]
+                err = max(abs(fc - predicted), 0.25 * h * abs(dc - slope))
+                scale = max(abs(fa), abs(fc), abs(fb))
+                lo = min(abs(fa), abs(fc), abs(fb))
+                change = _sgn(fa) != _sgn(fc) or _sgn(fc) != _sgn(fb)
+                near = lo <= 4.0 * err + tol or change
+                if err > 0.05 * scale + tol and near:
+                    split[k] = True
+                    break
+        ns = 0
+        for k in range(K):
+            if split[k]:
+                ns += 1
+        if ns == 0:
+            break
+        refinements += ns
+        na = np.empty(2 * ns, dtype=np.int64)
+        nb = np.empty(2 * ns, dtype=np.int64)
+        i = 0
+        for k in range(K):
+            if split[k]:
+                na[i] = a_idx[k]
+                nb[i] = c0 + k
+                na[ns + i] = c0 + k
+                nb[ns + i] = b_idx[k]
+                i += 1
+        a_idx, b_idx = na, nb
+    order = np.argsort(T[:nk], kind="mergesort")
+    keep = np.ones(nk, dtype=np.bool_)
+    for i in range(1, nk):
+        if T[order[i]] == T[order[i - 1]]:
+            keep[i] = False
+    sel = order[keep]
+    return T[sel], np.ascontiguousarray(PHI[:, sel]), np.ascontiguousarray(DPHI[:, sel]), \
+        refinements
+
+
+@numba.njit(cache=True)
+def _extremes(h, fa, fb, da, db):
+    """Minimum and maximum of the cubic Hermite interpolant on [0, 1] (location.py)."""
+    c0 = fa
+    c1 = h * da
+    c2 = 3.0 * (fb - fa) - h * (2.0 * da + db)
+    c3 = 2.0 * (fa - fb) + h * (da + db)
+    a, b, c = 3.0 * c3, 2.0 * c2, c1
+    disc = b * b - 4.0 * a * c
+    sq = math.sqrt(disc) if disc >= 0 else np.nan
+    qq = -0.5 * (b + (1.0 if b >= 0 else -1.0) * sq)
+    r1 = qq / a if a != 0 else np.nan
+    if qq != 0:
+        r2 = c / qq
+    elif b != 0:
+        r2 = -c / b
+    else:
+        r2 = np.nan
+    s = np.zeros(4)
+    s[1] = 1.0
+    s[2] = r1 if (np.isfinite(r1) and 0 < r1 < 1) else 0.0
+    s[3] = r2 if (np.isfinite(r2) and 0 < r2 < 1) else 0.0
+    i_min = 0
+    i_max = 0
+    v_min = np.inf
+    v_max = -np.inf
+    for i in range(4):
+        v = c0 + s[i] * (c1 + s[i] * (c2 + s[i] * c3))
+        if v < v_min or i == 0:
+            v_min, i_min = v, i
+        if v > v_max or i == 0:
+            v_max, i_max = v, i
+    return v_min, s[i_min], v_max, s[i_max]
+
+
+@numba.njit(cache=True)
+def _brentq(model, md, p, sig, ws, step, r, level, xa, xb, xtol, rtol, maxiter):
+    xpre, xcur = xa, xb
+    xblk, fblk, spre, scur = 0.0, 0.0, 0.0, 0.0
+    fpre = monitor_value(model, md, p, sig, ws, step, r, xpre) - level
+    fcur = monitor_value(model, md, p, sig, ws, step, r, xcur) - level
+    if fpre == 0:
+        return xpre
+    if fcur == 0:
+        return xcur
+    for _ in range(maxiter):
+        if fpre != 0 and fcur != 0 and (fpre < 0) != (fcur < 0):
+            xblk, fblk = xpre, fpre
+            spre = scur = xcur - xpre
+        if abs(fblk) < abs(fcur):
+            xpre, xcur, xblk = xcur, xblk, xcur
+            fpre, fcur, fblk = fcur, fblk, fcur
+        delta = (xtol + rtol * abs(xcur)) / 2
+        sbis = (xblk - xcur) / 2
+        if fcur == 0 or abs(sbis) < delta:
+            return xcur
+        if abs(spre) > delta and abs(fcur) < abs(fpre):
+            if xpre == xblk:
+                stry = -fcur * (xcur - xpre) / (fcur - fpre)
+            else:
+                dpre = (fpre - fcur) / (xpre - xcur)
+                dblk = (fblk - fcur) / (xblk - xcur)
+                stry = -fcur * (fblk * dblk - fpre * dpre) / (dblk * dpre * (fblk - fpre))
+            if 2 * abs(stry) < min(abs(spre), 3 * abs(sbis) - delta):
+                spre, scur = scur, stry
+            else:
+                spre, scur = sbis, sbis
+        else:
+            spre, scur = sbis, sbis
+        xpre, fpre = xcur, fcur
+        if abs(scur) > delta:
+            xcur += scur
+        else:
+            xcur += delta if sbis > 0 else -delta
+        fcur = monitor_value(model, md, p, sig, ws, step, r, xcur) - level
+    return xcur
+
+
+@numba.njit(cache=True)
+def _locate(model, md, p, sig, ws, step, r, level, lo, hi, f_hi, xtol):
+    """``locate_crossing``: the first time within ``xtol`` at which the monitor holds."""
+    if f_hi == 0.0 or hi - lo <= xtol:
+        return hi
+    root = _brentq(model, md, p, sig, ws, step, r, level, lo, hi, 0.25 * xtol, 4 * _EPS, 200)
+    for j in range(3):
+        cand = root + 0.25 * j * xtol
+        if cand >= hi:
+            return hi
+        if monitor_value(model, md, p, sig, ws, step, r, cand) - level <= 0:
+            return cand
+    lo2 = max(lo, root - 0.5 * xtol)
+    if monitor_value(model, md, p, sig, ws, step, r, lo2) - level > 0:
+        lo = lo2
+    for _ in range(200):
+        if hi - lo <= xtol:
+            break
+        mid = 0.5 * (lo + hi)
+        if monitor_value(model, md, p, sig, ws, step, r, mid) - level > 0:
+            lo = mid
+        else:
+            hi = mid
+    return hi
+
+
+@numba.njit(cache=True)
+def _fminbound(model, md, p, sig, ws, step, r, level, x1, x2, xatol):
+    """scipy's bounded Brent minimiser (``minimize_scalar(method="bounded")``)."""
+    sqrt_eps = math.sqrt(2.2e-16)
+    golden_mean = 0.5 * (3.0 - math.sqrt(5.0))
+    a, b = x1, x2
+    fulc = a + golden_mean * (b - a)
+    nfc, xf = fulc, fulc
+    rat = e = 0.0
+    x = xf
+    fx = monitor_value(model, md, p, sig, ws, step, r, x) - level
+    num = 1
+    ffulc = fnfc = fx
+    xm = 0.5 * (a + b)
+    tol1 = sqrt_eps * abs(xf) + xatol / 3.0
+    tol2 = 2.0 * tol1
+    while abs(xf - xm) > (tol2 - 0.5 * (b - a)):
+        golden = True
+        if abs(e) > tol1:
+            golden = False
+            rr = (xf - nfc) * (fx - ffulc)
+            qq = (xf - fulc) * (fx - fnfc)
+            pp = (xf - fulc) * qq - (xf - nfc) * rr
+            qq = 2.0 * (qq - rr)
+            if qq > 0.0:
+                pp = -pp
+            qq = abs(qq)
+            rr = e
+            e = rat
+            if abs(pp) < abs(0.5 * qq * rr) and pp > qq * (a - xf) and pp < qq * (b - xf):
+                rat = (pp + 0.0) / qq
+                x = xf + rat
+                if (x - a) < tol2 or (b - x) < tol2:
+                    si = _sgn(xm - xf) + (1.0 if xm - xf == 0 else 0.0)
+                    rat = tol1 * si
+            else:
+                golden = True
+        if golden:
+            e = a - xf if xf >= xm else b - xf
+            rat = golden_mean * e
+        si = _sgn(rat) + (1.0 if rat == 0 else 0.0)
+        x = xf + si * max(abs(rat), tol1)
+        fu = monitor_value(model, md, p, sig, ws, step, r, x) - level
+        num += 1
+        if fu <= fx:
+            if x >= xf:
+                a = xf
+            else:
+                b = xf
+            fulc, ffulc = nfc, fnfc
+            nfc, fnfc = xf, fx
+            xf, fx = x, fu
+        else:
+            if x < xf:
+                a = x
+            else:
+                b = x
+            if fu <= fnfc or nfc == xf:
+                fulc, ffulc = nfc, fnfc
+                nfc, fnfc = x, fu
+            elif fu <= ffulc or fulc == xf or fulc == nfc:
+                fulc, ffulc = x, fu
+        xm = 0.5 * (a + b)
+        tol1 = sqrt_eps * abs(xf) + xatol / 3.0
+        tol2 = 2.0 * tol1
+        if num >= 500:
+            break
+    return xf, fx
+
+
+@numba.njit(cache=True)
+def _search(model, md, p, sig, ws, step, r, cand, tau, phi, lo_val, lo_s, t_from, level,
+            xtol, tol):
+    """First time the monitor reaches ``level`` in the candidate intervals (location.py)."""
+    for k in cand:
+        a = max(tau[k], t_from)
+        b = tau[k + 1]
+        if a != tau[k]:
+            f_a = monitor_value(model, md, p, sig, ws, step, r, a) - level
+        else:
+            f_a = phi[k] - level
+        f_b = phi[k + 1] - level
+        if f_a <= 0:
+            return True, a, True
+        if f_b <= 0 and not (0.0 < lo_s[k] < 1.0 and lo_val[k] < phi[k + 1]):
+            t_min, f_min = b, f_b
+        else:
+            xatol = max(xtol, 1e-15 * max(abs(a), abs(b), 1.0))
+            t_min, f_min = _fminbound(model, md, p, sig, ws, step, r, level, a, b, xatol)
+            guess = a + lo_s[k] * (b - a)
+            f_guess = monitor_value(model, md, p, sig, ws, step, r, guess) - level
+            if f_guess < f_min:
+                t_min, f_min = guess, f_guess
+            if f_b <= 0 and f_b < f_min:
+                t_min, f_min = b, f_b
+        if f_min <= 0:
+            t_hit = _locate(model, md, p, sig, ws, step, r, level, a, t_min, f_min, xtol)
+            return True, t_hit, (f_min >= -tol and f_b > tol)
+        if f_min <= tol:
+            return True, t_min, True
+    return False, 0.0, False
+
+
+@numba.njit(cache=True)
+def _first_trigger(model, md, p, sig, ws, step, r, tau, phi, dphi, armed, xtol, tol,
+                   has_floor, floor):
+    """``first_trigger`` of location.py: ``(found, t, grazing, armed_after)``."""
+    K = tau.size - 1
+    lo_val = np.empty(K)
+    lo_s = np.empty(K)
+    hi_val = np.empty(K)
+    hi_s = np.empty(K)
+    lower = np.empty(K)
+    for k in range(K):
+        h = tau[k + 1] - tau[k]
+        lo_val[k], lo_s[k], hi_val[k], hi_s[k] = _extremes(h, phi[k], phi[k + 1], dphi[k],
+                                                           dphi[k + 1])
+        lower[k] = min(phi[k], phi[k + 1], lo_val[k])
+    start = 0
+    t_from = tau[0]
+    if not armed:
+        limit = K
+        rising = False
+        for k in range(K):
+            if max(phi[k], phi[k + 1], hi_val[k]) > tol:
+                limit = k
+                rising = True
+                break
+        if has_floor:
+            n = 0
+            cand = np.empty(limit, dtype=np.int64)
+            for k in range(limit):
+                if lower[k] <= floor:
+                    cand[n] = k
+                    n += 1
+            found, t_hit, graz = _search(model, md, p, sig, ws, step, r, cand[:n], tau, phi,
+                                         lo_val, lo_s, t_from, floor, xtol, 0.0)
+            if found:
+                return True, t_hit, graz, False
+        if not rising:
+            return False, 0.0, False, False
+        start = limit
+        if phi[start] > tol:
+            t_from = tau[start]
+        elif hi_val[start] > tol and hi_s[start] < 1.0:
+            t_from = tau[start] + hi_s[start] * (tau[start + 1] - tau[start])
+            if monitor_value(model, md, p, sig, ws, step, r, t_from) <= tol:
+                t_from = tau[start + 1]
+                start += 1
+        else:
+            t_from = tau[start + 1]
+            start += 1
+        if start >= K:
+            return False, 0.0, False, phi[K] > tol
+    n = 0
+    cand = np.empty(K, dtype=np.int64)
+    for k in range(start, K):
+        if lower[k] <= tol:
+            cand[n] = k
+            n += 1
+    found, t_hit, graz = _search(model, md, p, sig, ws, step, r, cand[:n], tau, phi, lo_val,
+                                 lo_s, t_from, 0.0, xtol, tol)
+    return found, t_hit, graz, True
+
+
+@numba.njit(cache=True)
+def scan(model, md, p, sig, ws, step, armed, has_floor, floors, t0, t1, samples, max_refine,
+         event_tol, tol, stats):
+    """``_Run.scan``: the earliest cluster of monitors reaching zero in ``[t0, t1]``.
+
+    Returns ``(n, rows, times, grazing, new_armed)``; ``n == 0`` when nothing fires.
+    """
+    M = armed.size
+    new_armed = armed.copy()
+    rows = np.empty(M, dtype=np.int64)
+    times = np.empty(M)
+    graz = np.zeros(M, dtype=np.bool_)
+    if M == 0:
+        return 0, rows, times, graz, new_armed
+    tau, phi, dphi, refinements = sample_step(model, md, p, sig, ws, step, t0, t1, samples,
+                                              max_refine, tol)
+    stats[1] += refinements
+    xtol = event_tol * max(1.0, min(abs(t0), abs(t1)))
+    width = 8 * xtol
+    K = tau.size - 1
+    starts = np.full(M, np.inf)
+    use = np.zeros(M, dtype=np.bool_)
+    for r in range(M):
+        first = -1
+        sinking = False
+        rising = False
+        for k in range(K):
+            h = tau[k + 1] - tau[k]
+            lv, _, hv, _ = _extremes(h, phi[r, k], phi[r, k + 1], dphi[r, k], dphi[r, k + 1])
+            lower = min(phi[r, k], phi[r, k + 1], lv)
+            upper = max(phi[r, k], phi[r, k + 1], hv)
+            if armed[r]:
+                if lower <= tol:
+                    first = k
+                    break
+            else:
+                if has_floor[r] and lower <= floors[r]:
+                    sinking = True
+                if upper > tol:
+                    rising = True
+        if armed[r]:
+            if first >= 0:
+                starts[r] = tau[first]
+                use[r] = True
+        elif sinking or rising:
+            starts[r] = t0
+            use[r] = True
+    order = np.argsort(starts, kind="mergesort")
+    n = 0
+    earliest = np.inf
+    for oi in range(M):
+        r = order[oi]
+        if not use[r]:
+            continue
+        if starts[r] > earliest + width:
+            new_armed[r] = armed[r]
+            continue
+        if np.isfinite(earliest) and armed[r]:
+            at = monitor_value(model, md, p, sig, ws, step, r, earliest)
+            before = monitor_value(model, md, p, sig, ws, step, r, earliest - width)
+            if at <= 0 < before:
+                rows[n], times[n], graz[n] = r, earliest, False
+                n += 1
+                continue
+        found, t_hit, g, arm = _first_trigger(model, md, p, sig, ws, step, r, tau, phi[r],
+                                              dphi[r], armed[r], xtol, tol, has_floor[r],
+                                              floors[r])
+        new_armed[r] = arm
+        if found:
+            rows[n], times[n], graz[n] = r, t_hit, g
+            n += 1
+            earliest = min(earliest, t_hit)
+    if n == 0:
+        return 0, rows, times, graz, new_armed
+    m = 0
+    for i in range(n):
+        if times[i] <= earliest + width:
+            rows[m], times[m], graz[m] = rows[i], times[i], graz[i]
+            m += 1
+    stats[2] += m
+    return m, rows, times, graz, new_armed

@@ -1,0 +1,151 @@
+"""The compiled (numba) backend against the reference engine, fallback and disk cache."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+import hybridlab
+from hybridlab.errors import SimulationError
+
+pytest.importorskip("numba")
+
+# (model, scenario, t_end): every bundled model and scenario; the trolley on a short horizon
+CASES = [
+    ("bouncing_ball", "default", None),
+    ("bouncing_ball", "zeno", None),
+    ("bouncing_ball", "benchmark", None),
+    ("thermostat", "default", None),
+    ("sampled_control", "default", None),
+    ("relay_sliding", "default", None),
+    ("relay_sliding", "escape", 4.0),
+    ("friction_oscillator", "default", None),
+    ("trolley", "step", 0.05),
+]
+
+
+@pytest.fixture(scope="module")
+def compiled_models(models_dir):
+    names = {name for name, _, _ in CASES}
+    return {name: hybridlab.compile_model(hybridlab.load_model(models_dir / f"{name}.toml"))
+            for name in names}
+
+
+def _pair(model, **kw):
+    fast = hybridlab.simulate(model, backend="compiled", **kw)
+    ref = hybridlab.simulate(model, backend="reference", **kw)
+    return fast, ref
+
+
+@pytest.mark.parametrize(("name", "scenario", "t_end"), CASES)
+def test_event_sequences_and_times_agree_with_the_reference(compiled_models, name, scenario,
+                                                            t_end):
+    fast, ref = _pair(compiled_models[name], scenario=scenario, t_end=t_end)
+    assert fast.status == ref.status
+    assert [(e.transition, e.kind, e.source, e.target, e.j) for e in fast.events] == \
+        [(e.transition, e.kind, e.source, e.target, e.j) for e in ref.events]
+    for a, b in zip(fast.events, ref.events, strict=True):
+        assert abs(a.t - b.t) <= 1e-9
+        for key in a.post:
+            assert a.post[key] == pytest.approx(b.post[key], rel=1e-6, abs=1e-7)
+    assert fast.final.mode == ref.final.mode and fast.final.j == ref.final.j
+    assert fast.final.t == pytest.approx(ref.final.t, abs=1e-9)
+    for key, value in ref.final.state.items():
+        assert fast.final.state[key] == pytest.approx(value, rel=1e-6, abs=1e-7)
+    if ref.zeno_time is not None:
+        assert fast.zeno_time == pytest.approx(ref.zeno_time, rel=1e-9)
+    # dense output between the events agrees too
+    # (inside the horizon: at a Zeno end the two runs stop a rounding error apart)
+    t = np.linspace(ref.segments[0].t_start, 0.999 * min(ref.final.t, fast.final.t), 37)
+    np.testing.assert_allclose(fast(t), ref(t), rtol=1e-6, atol=1e-7)
+
+
+def test_smooth_models_run_compiled_and_sliding_ones_fall_back(compiled_models):
+    ball = hybridlab.simulate(compiled_models["bouncing_ball"], t_end=3.0)
+    assert ball.stats["backend"] == "compiled"
+    relay = hybridlab.simulate(compiled_models["relay_sliding"])
+    assert relay.stats["backend"] == "reference"
+    assert "reference engine" in relay.stats["fallback"]
+    stiff = hybridlab.simulate(compiled_models["thermostat"], t_end=5.0, method="Radau")
+    assert stiff.stats["backend"] == "reference" and "Radau" in stiff.stats["fallback"]
+
+
+def test_ball_closed_form_on_both_methods(compiled_models):
+    g, e, h0 = 9.81, 0.8, 10.0
+    t1 = np.sqrt(2 * h0 / g)
+    exact = t1 + np.cumsum([0.0] + [2 * t1 * e**k for k in range(1, 6)])
+    for method in ("DOP853", "RK45"):
+        result = hybridlab.simulate(compiled_models["bouncing_ball"], t_end=exact[-1] + 0.1,
+                                    method=method, rtol=1e-10, atol=1e-12, backend="compiled")
+        times = np.array([ev.t for ev in result.jumps])
+        np.testing.assert_allclose(times, exact, rtol=0, atol=1e-9)
+        assert result.stats["backend"] == "compiled"
+
+
+def test_max_events_stops_like_the_reference(compiled_models):
+    fast, ref = _pair(compiled_models["thermostat"], t_end=60.0, max_events=5)
+    assert fast.status == ref.status == hybridlab.Status.MAX_EVENTS
+    assert fast.message.split(" by t")[0] == ref.message.split(" by t")[0] == "5 events logged"
+    assert fast.events[-1].t == pytest.approx(ref.events[-1].t, abs=1e-9)
+    assert fast.final.j == ref.final.j and fast.final.mode == ref.final.mode
+
+
+def test_zeno_error_policy_raises_on_the_compiled_backend(compiled_models):
+    with pytest.raises(hybridlab.ZenoError):
+        hybridlab.simulate(compiled_models["bouncing_ball"], scenario="zeno", zeno="error",
+                           backend="compiled")
+
+
+def test_without_numba_auto_is_the_reference_and_compiled_is_an_error(compiled_models,
+                                                                     monkeypatch):
+    import hybridlab.simulation.compiled as comp
+
+    monkeypatch.setattr(comp.importlib.util, "find_spec",
+                        lambda name, *a: None if name == "numba" else object())
+    result = hybridlab.simulate(compiled_models["bouncing_ball"], t_end=3.0)
+    assert result.stats.get("backend", "reference") == "reference"
+    with pytest.raises(SimulationError, match="needs numba"):
+        hybridlab.simulate(compiled_models["bouncing_ball"], t_end=3.0, backend="compiled")
+    with pytest.raises(ValueError, match="backend must be one of"):
+        hybridlab.simulate(compiled_models["bouncing_ball"], t_end=3.0, backend="fast")
+
+
+_DECAY = textwrap.dedent("""
+    name = "cache_probe"
+    states = { x = 1.0 }
+    parameters = { k = { value = 0.731 } }
+    [modes.on]
+    flow = { x = "-k*x" }
+    [[transitions]]
+    name = "reset"
+    source = "on"
+    target = "on"
+    guard = "x <= 0.25"
+    reset = { x = "1" }
+    [initial]
+    mode = "on"
+""")
+
+
+def test_second_process_loads_the_compiled_model_from_the_disk_cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("HYBRIDLAB_CACHE_DIR", str(tmp_path))
+    model = hybridlab.model.loads_model(_DECAY + f"# {tmp_path.name}\n")
+    first = hybridlab.simulate(model, t_end=5.0, backend="compiled")
+    assert first.stats["backend"] == "compiled"
+    assert first.stats["compiled_cache_hit"] is False
+    assert any(p.suffix == ".py" for p in tmp_path.iterdir())
+    # exact switching times: x = exp(-k t) reaches 1/4 every ln(4)/k
+    period = np.log(4.0) / 0.731
+    np.testing.assert_allclose([e.t for e in first.jumps], period * np.arange(1, 3), atol=1e-9)
+    script = ("import hybridlab, sys; m = hybridlab.model.loads_model(sys.stdin.read()); "
+              "r = hybridlab.simulate(m, t_end=5.0, backend='compiled'); "
+              "print(r.stats['backend'], r.stats['compiled_cache_hit'])")
+    out = subprocess.run([sys.executable, "-c", script], input=_DECAY + f"# {tmp_path.name}\n",
+                         capture_output=True, text=True, check=True,
+                         env={**os.environ, "HYBRIDLAB_CACHE_DIR": str(tmp_path)})
+    assert out.stdout.split() == ["compiled", "True"]
