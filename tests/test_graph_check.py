@@ -311,7 +311,7 @@ def test_thermostat_hysteresis_rules_out_a_zero_dwell_cycle() -> None:
 def test_cli_check_exit_codes(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["graph", str(ROOT / "models" / "thermostat.toml"), "--check"]) == 0
     out = capsys.readouterr().out
-    assert out == ("thermostat: 0 errors, 0 warnings, 0 infos; 2 transition edges, 1 cycles, "
+    assert out == ("thermostat: 0 errors, 0 warnings, 0 infos; 2 transition edges, 1 cycle, "
                    "2 parameter sets checked\n")
     bad = tmp_path / "bad.toml"
     bad.write_text('name = "bad"\n[states]\nx = 0.0\n' + TWO_MODES +

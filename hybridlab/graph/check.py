@@ -181,8 +181,10 @@ class GraphReport:
         """One line: counts of findings, modes, transitions and cycles checked."""
         counts = ", ".join(f"{self.count(s)} {s.value}" + ("s" if self.count(s) != 1 else "")
                            for s in (Severity.ERROR, Severity.WARNING, Severity.INFO))
-        return (f"{self.model}: {counts}; {len(self.transitions)} transition edges, "
-                f"{len(self.cycles)} cycles, {len(self.parameter_sets)} parameter sets checked")
+        sizes = ", ".join(_count(n, what) for n, what in (
+            (len(self.transitions), "transition edge"), (len(self.cycles), "cycle"),
+            (len(self.parameter_sets), "parameter set")))
+        return f"{self.model}: {counts}; {sizes} checked"
 
     def __str__(self) -> str:
         return "\n".join([*(str(f) for f in self.findings), self.summary()])
@@ -359,6 +361,10 @@ def _cycles(edges: Sequence[_Edge], modes: Sequence[str], max_length: int
         for order in nx.simple_cycles(complete, length_bound=max_length):
             if len(order) >= 2:
                 yield tuple(loops[i] for i in order)
+
+
+def _count(n: int, what: str) -> str:
+    return f"{n} {what}" + ("" if n == 1 else "s")
 
 
 def _rotate(names: tuple[str, ...]) -> tuple[str, ...]:
