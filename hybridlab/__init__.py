@@ -14,7 +14,7 @@ from hybridlab.errors import (
     SimulationError,
     ZenoError,
 )
-from hybridlab.graph import mode_graph, to_dot
+from hybridlab.graph import GraphReport, check_mode_graph, mode_graph, to_dot
 from hybridlab.io import load_spaceex
 from hybridlab.model import (
     Initial,
@@ -58,6 +58,7 @@ __all__ = [
     "CompiledModel",
     "Event",
     "ExpressionError",
+    "GraphReport",
     "HybridlabError",
     "Initial",
     "Mechanics",
@@ -80,6 +81,7 @@ __all__ = [
     "Transition",
     "ZenoError",
     "Zonotope",
+    "check_mode_graph",
     "compile_model",
     "dumps_model",
     "load_model",
