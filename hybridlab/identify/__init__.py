@@ -9,7 +9,10 @@ standard errors, residuals, a text table, a JSON summary and a plot:
   frequency response, and eq. (4) ``1/(s (m s + d))`` with the reasons ``d`` is
   unreliable (:mod:`hybridlab.identify.frequency`);
 * :func:`fit_events` -- any model parameters from sensor edges, by matching simulated
-  and measured edge sequences (:mod:`hybridlab.identify.events`).
+  and measured edge sequences (:mod:`hybridlab.identify.events`);
+* :func:`fit_targets` -- any model parameters from published or measured *summary
+  quantities* of simulated experiments: event counts, periods, values at events, step
+  overshoot and settling time (:class:`Target`, :mod:`hybridlab.identify.target_fit`).
 
 Data come in as :class:`FrictionData`, :class:`FrequencyData` and :class:`SensorEvents`
 (read from CSV by the ``read_*_csv`` functions); :mod:`hybridlab.identify.synthetic`
@@ -26,7 +29,7 @@ from hybridlab.identify.data import (
     read_friction_csv,
     write_csv,
 )
-from hybridlab.identify.errors import DataError
+from hybridlab.identify.errors import DataError, TargetError
 from hybridlab.identify.events import EventFit, Passages, edges_from_result, fit_events, passages
 from hybridlab.identify.frequency import (
     Eq4Fit,
@@ -37,6 +40,8 @@ from hybridlab.identify.frequency import (
     local_slopes,
 )
 from hybridlab.identify.friction import FrictionFit, LineFit, fit_friction
+from hybridlab.identify.target_fit import TargetFit, fit_targets
+from hybridlab.identify.targets import Target, read_targets
 
 __all__ = [
     "DataError",
@@ -50,15 +55,20 @@ __all__ = [
     "Passages",
     "SensorEvents",
     "SlopeRegion",
+    "Target",
+    "TargetError",
+    "TargetFit",
     "edges_from_result",
     "find_slope_region",
     "fit_events",
     "fit_friction",
     "fit_mass",
+    "fit_targets",
     "local_slopes",
     "passages",
     "read_events_csv",
     "read_frequency_csv",
     "read_friction_csv",
+    "read_targets",
     "write_csv",
 ]

@@ -6,6 +6,7 @@
     identify mass DATA.csv [--slope-tol TOL] [--out FILE.json] [--plot FILE.png]
     identify events MODEL DATA.csv --scenario NAME --fit NAME[,NAME...]
                     --sensor ID=RISING,FALLING --sensor ID=RISING,FALLING [...]
+    identify targets MODEL TARGETS.toml|json --fit NAME[,NAME...] [...]
 
 Each subcommand prints a table and sets ``run=<function(args) -> int>``; user errors
 are raised as ``ValueError`` (or hybridlab errors) for the caller to print.
@@ -22,6 +23,8 @@ from hybridlab.identify.data import read_events_csv, read_frequency_csv, read_fr
 from hybridlab.identify.events import fit_events
 from hybridlab.identify.frequency import fit_mass
 from hybridlab.identify.friction import fit_friction
+from hybridlab.identify.target_fit import fit_targets
+from hybridlab.identify.targets import read_targets
 
 __all__ = ["add_identify_parser", "main"]
 
@@ -88,6 +91,17 @@ def _run_events(args: argparse.Namespace) -> int:
     return _finish(result, args)
 
 
+def _run_targets(args: argparse.Namespace) -> int:
+    fit = [n.strip() for n in args.fit.split(",") if n.strip()]
+    guess = {k: _number(v, "--initial") for k, v in _pairs(args.initial, "--initial").items()}
+    params = {k: _number(v, "--param") for k, v in _pairs(args.param, "--param").items()}
+    options = {"rtol": args.rtol} if args.rtol is not None else {}
+    result = fit_targets(args.model, read_targets(args.targets), fit=fit, params=params,
+                         initial_guess=guess, max_evaluations=args.max_evaluations,
+                         method=args.method, simulation_options=options)
+    return _finish(result, args)
+
+
 def _outputs(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", metavar="FILE.json",
                         help="write the result as JSON; its 'parameters' maps names to values")
@@ -96,7 +110,7 @@ def _outputs(parser: argparse.ArgumentParser) -> None:
 
 
 def add_identify_parser(subparsers: Any) -> argparse.ArgumentParser:
-    """Add ``identify {friction,mass,events}`` to an argparse ``subparsers`` object.
+    """Add ``identify {friction,mass,events,targets}`` to an argparse ``subparsers`` object.
 
     Parameters
     ----------
@@ -168,6 +182,25 @@ def add_identify_parser(subparsers: Any) -> argparse.ArgumentParser:
                         default="least_squares")
     _outputs(events)
     events.set_defaults(run=_run_events)
+
+    targets = sub.add_parser("targets", help="model parameters from summary quantities "
+                             "(event counts, periods, values at events, step metrics)")
+    targets.add_argument("model", metavar="MODEL")
+    targets.add_argument("targets", metavar="TARGETS.toml|json",
+                         help="a list 'targets' of tables (docs/identification.md)")
+    targets.add_argument("--fit", required=True, metavar="NAME[,NAME...]",
+                         help="parameters to estimate")
+    targets.add_argument("--initial", action="append", metavar="NAME=VALUE",
+                         help="start value of a fitted parameter")
+    targets.add_argument("--param", action="append", metavar="NAME=VALUE",
+                         help="fixed parameter override for every experiment")
+    targets.add_argument("--rtol", type=float, default=None, help="integrator rtol")
+    targets.add_argument("--max-evaluations", type=int, default=40,
+                         help="most parameter points to simulate (default 40)")
+    targets.add_argument("--method", choices=("least_squares", "nelder-mead"),
+                         default="least_squares")
+    _outputs(targets)
+    targets.set_defaults(run=_run_targets)
     return identify
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from hybridlab.errors import HybridlabError
 
-__all__ = ["DataError"]
+__all__ = ["DataError", "TargetError"]
 
 
 class DataError(HybridlabError, ValueError):
@@ -38,3 +38,32 @@ class DataError(HybridlabError, ValueError):
         if self.column:
             parts.append(f"column {self.column!r}")
         return ": ".join([*parts, self.message])
+
+
+class TargetError(HybridlabError, ValueError):
+    """A target of :func:`hybridlab.identify.fit_targets` is malformed.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong, in one sentence.
+    key : str, optional
+        Where: ``targets[2].tolerance``.
+    source : str, optional
+        The file the targets came from.
+
+    Examples
+    --------
+    >>> str(TargetError("must be positive (got 0)", key="targets[2].tolerance",
+    ...                 source="targets.toml"))
+    'targets.toml: targets[2].tolerance: must be positive (got 0)'
+    """
+
+    def __init__(self, message: str, *, key: str = "", source: str = "") -> None:
+        super().__init__(message)
+        self.message = message
+        self.key = key
+        self.source = source
+
+    def __str__(self) -> str:
+        return ": ".join([p for p in (self.source, self.key) if p] + [self.message])
