@@ -153,9 +153,10 @@ def scipy_restart_loop(ball: Ball, method: str, rtol: float, atol: float) -> Tra
 
 # ----- hybridlab --------------------------------------------------------------------------
 def hybridlab_run(compiled: hybridlab.CompiledModel, method: str, rtol: float,
-                  atol: float) -> Trajectory:
+                  atol: float, backend: str = "reference") -> Trajectory:
     """One ``hybridlab.simulate`` of the scenario; the model is compiled beforehand."""
-    result = hybridlab.simulate(compiled, scenario=SCENARIO, method=method, rtol=rtol, atol=atol)
+    result = hybridlab.simulate(compiled, scenario=SCENARIO, method=method, rtol=rtol, atol=atol,
+                                backend=backend)
     if not result.status.ok:
         raise RuntimeError(f"hybridlab stopped early: {result.status.name}: {result.message}")
     impacts = np.array([ev.t for ev in result.jumps if ev.transition == "bounce"])
@@ -213,21 +214,32 @@ def run(repeat: int) -> Report:
 
     report = Report("bouncing_ball", f"hybridlab vs a solve_ivp restart loop, {exact.size} "
                     f"bounces, e = {ball.e}, T = {ball.t_end:g}")
-    speed_rows, state_rows = [], []
+    speed_rows, state_rows, fast_rows = [], [], []
+    start = time.perf_counter()
+    hybridlab.simulate(compiled, scenario=SCENARIO, backend="compiled")
+    first_compiled_ms = 1e3 * (time.perf_counter() - start)
     for method in METHODS:
         for rtol, atol in TOLERANCES:
-            (base_time, base), (hl_time, hl) = time_calls(
+            (base_time, base), (hl_time, hl), (fast_time, fast) = time_calls(
                 [lambda m=method, r=rtol, a=atol: scipy_restart_loop(ball, m, r, a),
-                 lambda m=method, r=rtol, a=atol: hybridlab_run(compiled, m, r, a)],
+                 lambda m=method, r=rtol, a=atol: hybridlab_run(compiled, m, r, a),
+                 lambda m=method, r=rtol, a=atol: hybridlab_run(compiled, m, r, a, "compiled")],
                 repeat=repeat)
             base_err, hl_err = errors(ball, exact, base), errors(ball, exact, hl)
+            fast_err = errors(ball, exact, fast)
             ratio = hl_time.median / base_time.median
             ratio_best = hl_time.best / base_time.best
+            speedup = base_time.median / fast_time.median
             speed_rows.append([method, f"{rtol:g}", f"{atol:g}", _ms(base_time.median),
                                _ms(hl_time.median), f"{ratio:.1f}", f"{ratio_best:.1f}",
                                str(base_err["bounces"]), str(hl_err["bounces"]),
                                _sci(base_err["max_impact_error"]),
                                _sci(hl_err["max_impact_error"])])
+            fast_rows.append([method, f"{rtol:g}", _ms(base_time.median),
+                              f"{1e3 * fast_time.median:.2f}", f"{speedup:.0f}",
+                              f"{hl_time.median / fast_time.median:.0f}",
+                              str(fast_err["bounces"]), _sci(fast_err["max_impact_error"]),
+                              str(fast.stats.get("backend"))])
             state_rows.append([method, f"{rtol:g}",
                                _sci(base_err["final_h_error"]), _sci(hl_err["final_h_error"]),
                                _sci(base_err["final_v_error"]), _sci(hl_err["final_v_error"]),
@@ -237,10 +249,14 @@ def run(repeat: int) -> Report:
                 "ratio_best": ratio_best,
                 "scipy_loop": {**base_time.as_dict(), **base_err},
                 "hybridlab": {**hl_time.as_dict(), **hl_err},
+                "compiled": {**fast_time.as_dict(), **fast_err},
+                "compiled_speedup_vs_scipy": speedup,
+                "compiled_speedup_vs_reference": hl_time.median / fast_time.median,
             })
     report.records.append({"exact_bounces": int(exact.size), "exact_impacts": exact.tolist(),
                            "exact_final_h": h_end, "exact_final_v": v_end,
                            "load_model_ms": load_ms, "compile_model_ms": compile_ms,
+                           "first_compiled_run_ms": first_compiled_ms,
                            "repeat": repeat})
     report.tables.append((
         f"Speed and event accuracy (median of {repeat} interleaved runs after a warm-up; "
@@ -248,6 +264,12 @@ def run(repeat: int) -> Report:
         ["method", "rtol", "atol", "scipy [ms]", "hybridlab [ms]", "ratio", "ratio best",
          "bounces scipy", "bounces hl", "max|dt_k| scipy", "max|dt_k| hl"],
         speed_rows))
+    report.tables.append((
+        "Compiled backend (numba): speed-up = scipy time / compiled time (medians; above 1 the "
+        "compiled backend is faster)",
+        ["method", "rtol", "scipy [ms]", "compiled [ms]", "x vs scipy", "x vs reference",
+         "bounces", "max|dt_k|", "backend"],
+        fast_rows))
     report.tables.append((
         f"End state at T = {ball.t_end:g} against the closed form "
         f"(h = {h_end:.6g} m, v = {v_end:.6g} m/s), and integrator steps",
@@ -262,7 +284,8 @@ def run(repeat: int) -> Report:
         "max|dt_k| is the largest |t_k - t_k(exact)| over all bounces, in seconds; "
         f"bounce {exact.size} is at {exact[-1]:.6f} s, the next one would be at {t_next:.6f} s.",
         f"One-off hybridlab costs, not in the timed column: load_model {load_ms:.1f} ms, "
-        f"compile_model {compile_ms:.1f} ms.",
+        f"compile_model {compile_ms:.1f} ms; first compiled run in this process (code "
+        f"generation, loading the disk cache or compiling) {first_compiled_ms:.0f} ms.",
     ]
     return report
 
