@@ -234,7 +234,8 @@ def user_error_cases(tmp_path: Path) -> list[tuple[list[str], str]]:
          f"(got {str(tmp_path / 'ball.txt')!r})"),
         (["frobnicate"],
          "hybridlab: error: argument command: invalid choice: 'frobnicate' "
-         "(choose from 'check', 'simulate', 'graph', 'identify', 'schema')"),
+         "(choose from 'check', 'simulate', 'graph', 'identify', 'import', 'sweep', 'reach', "
+         "'schema')"),
         ([], "hybridlab: error: the following arguments are required: command"),
         (["check"], "hybridlab: error: the following arguments are required: model"),
         (["simulate", ball, "--t-end", "soon"],
