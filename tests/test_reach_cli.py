@@ -96,3 +96,22 @@ def test_user_errors_exit_2_with_one_line(capsys, argv, message):
 def test_missing_model_file_is_a_user_error(capsys, tmp_path):
     code, _, err = _run(capsys, str(tmp_path / "none.toml"), "--t-end", "1", "--safe", "x >= 0")
     assert code == 2 and err.startswith("hybridlab: error: ") and err.count("\n") == 1
+
+
+def test_safe_exits_0_with_bounds_and_modes_in_the_json(capsys, tmp_path, decay):
+    out_file = tmp_path / "safe.json"
+    code, out, _ = _run(capsys, decay, "--init", "x=1:2", "--t-end", "1", "--safe", "x >= 0.3",
+                        "--samples", "2", "--out", str(out_file))
+    assert code == 0 and out.startswith("verdict: SAFE: every spec holds")
+    data = json.loads(out_file.read_text())
+    assert data["verdict"] == "SAFE" and data["counterexample"] is None
+    assert data["reachable_modes"] == ["run"] and data["reach_complete"] is True
+    lo, hi = data["bounds"]["x"]
+    assert lo <= math.exp(-1.0) and 2.0 <= hi < 2.01
+    assert 0 <= data["margin"] <= math.exp(-1.0) - 0.3
+
+
+def test_incomplete_reach_exits_3(capsys):
+    code, out, _ = _run(capsys, BALL, "--init", "h=5:6", "--t-end", "3", "--safe", "h >= -1",
+                        "--max-jumps", "0", "--samples", "2")
+    assert code == 3 and out.startswith("verdict: UNKNOWN: the reach result is incomplete")

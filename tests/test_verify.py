@@ -266,3 +266,46 @@ def test_unknown_without_reachability_is_an_assertion_unless_allowed(ball):
     verdict = assert_safe(ball, allow_unknown=True, **kwargs)
     assert verdict.status is VerdictStatus.UNKNOWN and verdict.margin is None
     assert verdict.falsification.runs == 1 + 2 + 2
+
+
+DECAY = """
+name = "decay"
+parameters = { k = 1.0 }
+states = { x = 1.0 }
+[modes.run]
+flow = { x = "-k*x" }
+[initial]
+mode = "run"
+"""
+
+
+def test_safe_with_a_proven_margin_on_a_closed_form():
+    # x = x0 exp(-t) with x0 in [1, 2]: x >= exp(-1) = 0.368 and x <= 2 on [0, 1]
+    verdict = check_safety(hybridlab.loads_model(DECAY), initial={"x": (1.0, 2.0)}, t_end=1.0,
+                           safe=["x >= 0.3", "x <= 2.05"],
+                           falsify_options=FalsifyOptions(samples=4, local_evals=5))
+    assert verdict.status is VerdictStatus.SAFE, verdict.reason
+    assert verdict.reach.complete and 0 <= verdict.margin <= 0.05
+    lows = {b.spec: b.lower for b in verdict.spec_bounds}
+    assert 0.0 <= lows["x >= 0.3"] <= math.exp(-1.0) - 0.3
+    assert verdict.as_dict()["verdict"] == "SAFE"
+
+
+def test_unknown_when_the_reach_is_cut_by_max_jumps(ball):
+    verdict = check_safety(ball, initial={"h": (5.0, 6.0)}, t_end=3.0, safe=["h >= -1"],
+                           max_jumps=0, falsify_options=FalsifyOptions(samples=2, local_evals=0))
+    assert verdict.status is VerdictStatus.UNKNOWN
+    assert verdict.reason.startswith("the reach result is incomplete (")
+    assert "falsification found no violation in 5 simulation(s)" in verdict.reason
+    assert not verdict.reach.complete
+
+
+def test_unknown_when_the_bound_is_too_coarse_names_spec_mode_and_time():
+    # a spec that holds with a margin of 1e-9 cannot be proved by a coarse flowpipe
+    verdict = check_safety(hybridlab.loads_model(DECAY), initial={"x": (1.0, 2.0)}, t_end=1.0,
+                           safe=[f"x >= {math.exp(-1.0) - 1e-9!r}"], step=0.1,
+                           falsify_options=FalsifyOptions(samples=2, local_evals=0))
+    assert verdict.status is VerdictStatus.UNKNOWN
+    assert verdict.margin < 0 and verdict.where.mode == "run"
+    assert "while no simulation violated it: the overlap may be spurious" in verdict.reason
+    assert verdict.where.t[1] == pytest.approx(1.0)
