@@ -93,7 +93,7 @@ def test_count_alone_converges_from_a_start_with_a_different_count(oscillator) -
                       max_evaluations=20)
     assert fit.simulated_initial == (13.0,)
     assert fit.simulated == (5.0,)
-    assert 1 / 3 < fit.parameters["c"] <= 0.4
+    assert 1 / 3 <= fit.parameters["c"] < 0.4
     assert fit.continuous[0] == pytest.approx(5.5, abs=0.05)
 
 
@@ -255,5 +255,5 @@ def test_cli_targets_end_to_end(tmp_path, capsys) -> None:
     assert args.run(args) == 0
     assert "residual/sigma" in capsys.readouterr().out
     payload = json.loads(out.read_text())
-    assert 1 / 3 < payload["parameters"]["c"] <= 0.4
+    assert 1 / 3 <= payload["parameters"]["c"] < 0.4
     assert payload["targets"][0]["simulated"] == 5
