@@ -254,10 +254,26 @@ class Zonotope:
 
     def contains_points(self, X: Any, tol: float = 1e-9) -> np.ndarray:
         """Whether each row of ``X`` lies in the zonotope, within ``tol`` (relative to its
-        size). Exact for full-dimensional zonotopes with n <= 3 (facets), an LP otherwise."""
+        size). Exact through facets when the zonotope's affine hull has dimension <= 3
+        (a degenerate zonotope is tested in its own coordinates), an LP per point otherwise."""
         P, single = _points(X, self.dim)
         scale = tol * (1.0 + float(np.max(np.abs(self.center), initial=0.0))
                        + float(np.max(self.radius(), initial=0.0)))
+        G = self.compact().generators
+        rank = np.linalg.matrix_rank(G) if G.size else 0
+        if rank < self.dim and rank <= 3:
+            # degenerate: the point must lie in the affine hull, then test in its coordinates
+            U = np.linalg.svd(G)[0][:, :rank] if rank else np.zeros((self.dim, 0))
+            D = P - self.center
+            Y = D @ U
+            off = np.linalg.norm(D - Y @ U.T, axis=1) <= scale
+            if rank == 0:
+                inside = off
+            else:
+                flat = Zonotope(np.zeros(rank), U.T @ G)
+                inside = off & flat.contains_points(Y, tol * (1 + float(np.max(np.abs(
+                    self.center), initial=0.0))) / (1 + float(np.max(flat.radius()))) + tol)
+            return inside[0] if single else inside
         H = self.halfspaces()
         if H is not None:
             A, b = H
@@ -348,7 +364,8 @@ class Zonotope:
         tol = 1e-12 * (spread + abs(l) + abs(u) + 1e-300) if np.isfinite(l + u) else 0.0
         if u < -spread - tol or l > spread + tol:
             return None
-        nz = np.flatnonzero(d)
+        # breakpoints only where d_j is not negligible: any multiplier gives a valid bound
+        nz = np.flatnonzero(np.abs(d) > 1e-12 * spread)
         out = self.bounds().copy()
         if nz.size == 0:
             return out
@@ -358,6 +375,7 @@ class Zonotope:
         vals = -np.sum(np.abs(C[:, None, :] + mus[:, :, None] * d[None, None, :]), axis=2)
         vals -= np.maximum(mus * u if np.isfinite(u) else np.where(mus > 0, np.inf, 0.0),
                            mus * l if np.isfinite(l) else np.where(mus < 0, np.inf, 0.0))
+        vals = np.where(np.isnan(vals), -np.inf, vals)
         best = np.argmax(vals, axis=1)
         mu = mus[np.arange(C.shape[0]), best]
         g = vals[np.arange(C.shape[0]), best]

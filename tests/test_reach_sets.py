@@ -1,0 +1,234 @@
+"""Interval arithmetic and set operations of hybridlab.reachability: sound by sampling.
+
+Every operation must contain the image of every sampled point (Hypothesis draws
+the boxes, zonotopes and matrices); the LP-free intersection bounds are compared
+with HiGHS.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import sympy as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.optimize import linprog
+
+from hybridlab.reachability import (
+    Box,
+    Interval,
+    IntervalError,
+    IntervalFunction,
+    Polytope,
+    SetError,
+    Zonotope,
+)
+from hybridlab.reachability.interval import interval_eval
+
+finite = st.floats(-50, 50, allow_nan=False, allow_infinity=False)
+
+
+@st.composite
+def intervals(draw, lo=-5.0, hi=5.0):
+    a = draw(st.floats(lo, hi))
+    b = draw(st.floats(lo, hi))
+    return Interval(min(a, b), max(a, b))
+
+
+@st.composite
+def zonotopes(draw, n=None, max_m=6):
+    n = n or draw(st.integers(1, 3))
+    m = draw(st.integers(0, max_m))
+    c = np.array(draw(st.lists(finite, min_size=n, max_size=n)))
+    G = np.array(draw(st.lists(st.floats(-3, 3), min_size=n * m, max_size=n * m))).reshape(n, m)
+    return Zonotope(c, G)
+
+
+def _samples(Z: Zonotope, k: int = 200, seed: int = 0) -> np.ndarray:
+    """Points of Z: random factors plus every vertex-like corner for small m."""
+    rng = np.random.default_rng(seed)
+    m = Z.generators.shape[1]
+    B = rng.uniform(-1, 1, size=(k, m))
+    if 0 < m <= 6:
+        corners = np.array(np.meshgrid(*[[-1.0, 1.0]] * m)).reshape(m, -1).T
+        B = np.vstack([B, corners])
+    return Z.center + B @ Z.generators.T
+
+
+# ----- interval arithmetic ----------------------------------------------------------------------
+X, Y = sp.symbols("x y", real=True)
+EXPRESSIONS = [
+    X + Y, X - Y, X * Y, X / (Y + 10), X**2, X**3, (X**2 + 1)**-2, sp.sqrt(X + 6), sp.exp(X),
+    sp.log(X + 6), sp.sin(X), sp.cos(X * Y), sp.tan(X / 4), sp.atan(X), sp.asin(X / 6),
+    sp.acos(Y / 6), sp.sinh(X), sp.cosh(X), sp.tanh(X), sp.Abs(X), sp.sign(X), sp.Min(X, Y),
+    sp.Max(X, 2 * Y), sp.atan2(Y, X), sp.Rational(1, 3) * X**2 - sp.pi * Y,
+    (X**2 + Y**2 + 1)**sp.Rational(3, 2), X**Y / (1 + sp.exp(Y)) + 0 * X,
+    sp.Heaviside(X),
+]
+
+
+@pytest.mark.parametrize("expr", EXPRESSIONS, ids=[str(e) for e in EXPRESSIONS])
+@settings(max_examples=15, deadline=None)
+@given(bx=intervals(), by=intervals())
+def test_interval_enclosure_contains_every_sampled_value(expr, bx, by):
+    if expr.has(X**Y):  # a real power needs a positive base
+        bx = Interval(abs(bx.lo) + 0.1, abs(bx.lo) + 0.1 + bx.hi - bx.lo)
+    f = IntervalFunction([expr], [X, Y])
+    r = f.intervals([bx, by])[0]
+    g = sp.lambdify([X, Y], expr, modules=[{"Heaviside": lambda v, h0=0.5: np.heaviside(v, h0)},
+                                              "numpy"])
+    xs = np.r_[bx.lo, bx.hi, np.linspace(bx.lo, bx.hi, 41)]
+    ys = np.r_[by.lo, by.hi, np.linspace(by.lo, by.hi, 41)]
+    xx, yy = np.meshgrid(xs, ys)
+    with np.errstate(all="ignore"):
+        values = np.asarray(g(xx, yy), dtype=float) * np.ones_like(xx)
+    values = values[np.isfinite(values)]
+    assert np.all(values >= r.lo) and np.all(values <= r.hi), (r, values.min(), values.max())
+
+
+def test_interval_rounding_is_outward():
+    r = Interval(0.1, 0.1) + Interval(0.2, 0.2)
+    assert r.lo < 0.1 + 0.2 < r.hi or r.lo <= 0.3 <= r.hi
+    third = interval_eval(sp.Rational(1, 3) * X, {X: (1.0, 1.0)})
+    assert third.lo < 1 / 3 < third.hi or third.lo <= 1 / 3 <= third.hi
+    assert third.hi - third.lo < 1e-15
+
+
+def test_interval_trigonometry_hits_its_extremes():
+    assert Interval(0.0, math.pi).__class__ is Interval
+    r = interval_eval(sp.sin(X), {X: (0.0, math.pi)})
+    assert r.hi == 1.0 and -1e-15 < r.lo <= 0.0
+    r = interval_eval(sp.cos(X), {X: (3.0, 3.3)})
+    assert r.lo == -1.0
+    assert interval_eval(sp.tan(X), {X: (1.0, 2.0)}).hi == math.inf
+
+
+def test_interval_errors_are_named():
+    with pytest.raises(IntervalError, match="log of a non-positive"):
+        interval_eval(sp.log(X), {X: (-2.0, -1.0)})
+    with pytest.raises(IntervalError, match="no interval given for symbol y"):
+        interval_eval(X + Y, {X: (0.0, 1.0)})
+    with pytest.raises(IntervalError, match="lo <= hi"):
+        Interval(1.0, 0.0)
+
+
+def test_division_by_an_interval_containing_zero_is_the_whole_line():
+    r = Interval(1.0, 2.0) / Interval(-1.0, 1.0)
+    assert r.lo == -math.inf and r.hi == math.inf
+
+
+# ----- zonotopes ---------------------------------------------------------------------------------
+@settings(max_examples=40, deadline=None)
+@given(Z=zonotopes())
+def test_zonotope_bounds_support_and_membership_contain_its_points(Z):
+    pts = _samples(Z)
+    b = Z.bounds()
+    assert np.all(pts >= b[:, 0] - 1e-12) and np.all(pts <= b[:, 1] + 1e-12)
+    rng = np.random.default_rng(1)
+    for d in rng.normal(size=(5, Z.dim)):
+        assert np.all(pts @ d <= Z.support(d) + 1e-9)
+    assert np.all(Z.contains_points(pts))
+
+
+@settings(max_examples=40, deadline=None)
+@given(Z=zonotopes(), data=st.data())
+def test_linear_map_sum_and_reduction_over_approximate(Z, data):
+    n = Z.dim
+    entries = data.draw(st.lists(st.floats(-2, 2), min_size=n * n, max_size=n * n))
+    M = np.array(entries).reshape(n, n)
+    pts = _samples(Z)
+    assert np.all(Z.linear_map(M).contains_points(pts @ M.T))
+    big = Zonotope(Z.center, np.hstack([Z.generators] * 4))
+    reduced = big.reduce(1.0)
+    assert reduced.generators.shape[1] <= max(n, 1)
+    assert np.all(reduced.contains_points(_samples(big, seed=2)))
+    other = Zonotope(np.ones(n), np.eye(n))
+    s = Z.minkowski_sum(other)
+    assert np.all(s.contains_points(pts + 0.5))
+
+
+def test_membership_rejects_points_outside():
+    Z = Zonotope([0.0, 0.0], [[1.0, 1.0], [0.0, 1.0]])
+    assert not Z.contains_points([2.0, 0.0])            # inside the box, outside Z
+    assert Z.contains_points([2.0, 1.0])
+    flat = Zonotope([0.0, 0.0, 0.0], [[1.0], [1.0], [0.0]])  # degenerate: LP path
+    assert flat.contains_points([0.5, 0.5, 0.0])
+    assert not flat.contains_points([0.5, -0.5, 0.0])
+
+
+@settings(max_examples=40, deadline=None)
+@given(Z=zonotopes(n=2), a=st.lists(st.floats(-2, 2), min_size=2, max_size=2),
+       b=st.floats(-20, 20))
+def test_halfspace_intersection_keeps_every_point_that_satisfies_it(Z, a, b):
+    a = np.array(a)
+    pts = _samples(Z, k=400)
+    keep = pts[pts @ a <= b]
+    cut = Z.intersect_halfspace(a, b)
+    if cut is None:
+        assert keep.size == 0
+        return
+    assert np.all(cut.contains_points(keep, tol=1e-7))
+
+
+@settings(max_examples=30, deadline=None)
+@given(Z=zonotopes(n=3, max_m=5), a=st.lists(st.floats(-2, 2), min_size=3, max_size=3),
+       lo=st.floats(-10, 10), width=st.floats(0, 5))
+def test_slab_bounds_match_highs(Z, a, lo, width):
+    a = np.array(a)
+    hi = lo + width
+    got = Z.bounds_in_slab(a, lo, hi)
+    G, c = Z.generators, Z.center
+    m = G.shape[1]
+    A = np.vstack([a, -a]) @ G
+    rhs = np.array([hi - a @ c, a @ c - lo])
+    if m == 0:
+        return
+    ref = []
+    for i in range(3):
+        r1 = linprog(G[i], A_ub=A, b_ub=rhs, bounds=[(-1, 1)] * m, method="highs")
+        if r1.status == 2:
+            assert got is None or np.allclose(a @ c, [lo, hi], atol=1e-9)
+            return
+        r2 = linprog(-G[i], A_ub=A, b_ub=rhs, bounds=[(-1, 1)] * m, method="highs")
+        ref.append((c[i] + r1.fun, c[i] - r2.fun))
+    ref = np.array(ref)
+    if got is None:  # HiGHS accepts 1e-9 infeasibility; the dual bound is exact
+        spread = np.abs(a @ G).sum()
+        assert min(hi - (a @ c - spread), (a @ c + spread) - lo) < 1e-9
+        return
+    assert np.all(got[:, 0] <= ref[:, 0] + 1e-7) and np.all(got[:, 1] >= ref[:, 1] - 1e-7)
+    assert np.allclose(got, ref, atol=1e-6)
+
+
+def test_general_intersection_bounds_by_lp():
+    Z = Zonotope([0.0, 0.0], [[1.0, 0.0], [0.0, 1.0]])
+    b = Z.bounds_within([[1.0, 1.0], [1.0, -1.0]], [0.0, 0.0])   # x <= -|y|
+    assert np.allclose(b, [[-1.0, 0.0], [-1.0, 1.0]], atol=1e-8)
+    assert Z.bounds_within([[1.0, 0.0]], [-2.0]) is None
+
+
+# ----- boxes and polytopes ----------------------------------------------------------------------
+def test_box_and_polytope_agree_on_a_square():
+    box = Box([0.0, 0.0], [1.0, 2.0])
+    poly = Polytope([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]], [1.0, 0.0, 2.0, 0.0])
+    for d in ([1.0, 1.0], [-1.0, 2.0], [0.3, -0.7]):
+        assert poly.support(d) == pytest.approx(box.support(d), abs=1e-9)
+    assert np.allclose(poly.bounds(), box.bounds(), atol=1e-8)
+    z = box.to_zonotope()
+    assert np.allclose(z.bounds(), box.bounds())
+    pts = np.array([[0.5, 1.0], [1.5, 1.0]])
+    assert box.contains_points(pts).tolist() == poly.contains_points(pts).tolist() == [True,
+                                                                                        False]
+
+
+def test_set_errors_name_the_argument():
+    with pytest.raises(SetError, match="lo must not exceed hi"):
+        Box([1.0], [0.0])
+    with pytest.raises(SetError, match="generators must have shape"):
+        Zonotope([0.0, 0.0], [[1.0, 0.0, 0.0]])
+    with pytest.raises(SetError, match="unbounded"):
+        Polytope([[1.0, 0.0]], [1.0]).bounds()
+    with pytest.raises(SetError, match="points must have 2 columns"):
+        Box([0.0, 0.0], [1.0, 1.0]).contains_points([1.0, 2.0, 3.0])
