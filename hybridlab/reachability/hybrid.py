@@ -327,6 +327,7 @@ class _Analysis:
         """Fire the scheduled transitions due now from the time-point set ``P``.
 
         Returns whether one of them must fire (so the flow in this mode ends)."""
+        self.record(item, P, now, now)  # the pre-jump states at the instant itself
         fired = frozenset(tr.index for tr in due)
         previous = item.sched_done[1] if item.sched_done and item.sched_done[0] == now else \
             frozenset()

@@ -1,0 +1,141 @@
+"""Reachable sets with closed forms: the computed bounds enclose them, and tightly.
+
+Each test states its tolerance: the over-approximation allowed on top of the exact
+answer (sound: the exact answer is always inside).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import hybridlab
+from hybridlab.reachability import Box, Polytope, Zonotope, reach
+
+
+def _model(text: str) -> hybridlab.Model:
+    return hybridlab.loads_model(text)
+
+
+DECAY = _model('''
+name = "decay"
+parameters = { k = 1.0, u = 0.0 }
+states = { x = 1.0 }
+[modes.on]
+flow = { x = "-k*x + u" }
+[initial]
+mode = "on"
+''')
+
+OSCILLATOR = _model('''
+name = "oscillator"
+states = { x = 1.0, v = 0.0 }
+[modes.on]
+flow = { x = "v", v = "-x" }
+[initial]
+mode = "on"
+''')
+
+CUBIC = _model('''
+name = "cubic"
+states = { x = 1.0 }
+[modes.on]
+flow = { x = "-x**3" }
+[initial]
+mode = "on"
+''')
+
+
+def test_decay_interval_hull_and_time_point_sets():
+    # x' = -x from [1, 2] over [0, 2]: hull [2 e^-2, 2]; at time t: [e^-t, 2 e^-t]
+    r = reach(DECAY, initial={"x": (1.0, 2.0)}, t_end=2.0, step=0.01)
+    lo, hi = r.bounds["x"]
+    assert lo <= math.exp(-2) <= hi and hi >= 2.0
+    assert abs(lo - math.exp(-2)) < 5e-3 and abs(hi - 2.0) < 1e-3
+    for t in (0.5, 1.0, 1.5):
+        sets = r.sets_at(t)
+        assert sets
+        lo_t = min(s.bounds()[0, 0] for s in sets)
+        hi_t = max(s.bounds()[0, 1] for s in sets)
+        assert lo_t <= math.exp(-t) and hi_t >= 2 * math.exp(-t)
+        # two adjacent steps may cover t; each spans at most 2 steps of decay
+        assert hi_t - lo_t < math.exp(-t) * (1 + 0.03)
+
+
+def test_harmonic_oscillator_hull_is_the_largest_amplitude():
+    # x' = v, v' = -x: circles; over a full period x reaches +-max sqrt(x0^2 + v0^2)
+    r = reach(OSCILLATOR, initial={"x": (0.9, 1.1), "v": (-0.1, 0.1)}, t_end=2 * math.pi,
+              step=0.01)
+    amplitude = math.hypot(1.1, 0.1)
+    for name in ("x", "v"):
+        lo, hi = r.bounds[name]
+        assert lo <= -amplitude and hi >= amplitude
+        assert hi - amplitude < 2e-2 and -amplitude - lo < 2e-2
+
+
+def test_bounded_input_reaches_the_closed_form_band():
+    # x' = -x + u, u(t) in [-1, 1] arbitrary, x(0) = 0: |x(t)| <= 1 - e^-t, attained
+    r = reach(DECAY, initial={"x": 0.0}, inputs={"u": (-1.0, 1.0)}, t_end=3.0, step=0.01)
+    lo, hi = r.bounds["x"]
+    exact = 1 - math.exp(-3.0)
+    assert hi >= exact and lo <= -exact
+    assert hi - exact < 2e-2 and -exact - lo < 2e-2
+
+
+def test_uncertain_constant_parameter():
+    # x' = -k x, k in [1, 1.2] constant, x(0) = 1: x(1) in [e^-1.2, e^-1]. k x is bilinear
+    # in the extended state (x, k), so this runs the conservative linearisation; its
+    # remainder |dk| |dx| grows with the parameter's width (k in [1, 2] is ~0.06 loose)
+    r = reach(DECAY, initial={"x": 1.0}, params={"k": (1.0, 1.2)}, t_end=1.0, step=0.005)
+    assert r.complete
+    final = [s for s in r.sets if s.t[1] >= 1.0]
+    lo = min(s.bounds()[0, 0] for s in final)
+    hi = max(s.bounds()[0, 1] for s in final)
+    assert lo <= math.exp(-1.2) and hi >= math.exp(-1)
+    assert math.exp(-1.2) - lo < 5e-3 and hi - math.exp(-1) < 5e-3
+    # the parameter is carried as a state: bound() sees it over its interval
+    k_lo, k_hi = r.sets[0].bound("k")
+    assert k_lo <= 1.0 and k_hi >= 1.2 and k_hi - k_lo < 0.2 + 1e-9
+    wide = reach(DECAY, initial={"x": 1.0}, params={"k": (1.0, 2.0)}, t_end=1.0, step=0.005)
+    assert min(s.bounds()[0, 0] for s in wide.sets if s.t[1] >= 1.0) <= math.exp(-2)
+
+
+def test_nonlinear_cubic_decay_matches_its_closed_form():
+    # x' = -x^3: x(t) = x0 / sqrt(1 + 2 x0^2 t); from [1, 1.5] at t = 2: [0.4472, 0.4743]
+    r = reach(CUBIC, initial={"x": (1.0, 1.5)}, t_end=2.0, step=0.01)
+    assert r.complete
+    final = r.sets[-1].bounds()[0]
+    exact = np.array([1.0, 1.5]) / np.sqrt(1 + 2 * np.array([1.0, 1.5]) ** 2 * 2.0)
+    assert final[0] <= exact[0] and final[1] >= exact[1]
+    assert exact[0] - final[0] < 1e-2 and final[1] - exact[1] < 2e-2
+
+
+@pytest.mark.parametrize("h0", [(5.0, 10.0), (10.0, 10.0)])
+def test_bouncing_ball_height_bound(h0, models_dir):
+    # dropped from rest at h0 with e = 0.8: the height never exceeds max h0, after the first
+    # bounce never exceeds e^2 max h0 = 6.4 (energy is lost at each impact), and the impact
+    # speed is sqrt(2 g max h0) = 14.007 m/s
+    r = reach(models_dir / "bouncing_ball.toml", initial={"h": h0, "v": 0.0}, t_end=5.0,
+              step=0.005)
+    assert r.complete
+    hi = r.bounds["h"][1]
+    assert 10.0 <= hi < 10.0 + 1e-3
+    after = max(s.bounds()[0, 1] for s in r.sets if s.jumps >= 1)
+    assert 6.4 <= after < 6.4 + 5e-2
+    v_impact = math.sqrt(2 * 9.81 * 10.0)
+    v_lo = r.bounds["v"][0]
+    assert v_lo <= -v_impact and -v_impact - v_lo < 5e-2
+    assert r.bounds["v"][1] >= 0.8 * v_impact
+
+
+def test_initial_sets_as_objects_agree():
+    box = reach(OSCILLATOR, initial=Box([0.9, -0.1], [1.1, 0.1]), t_end=1.0, step=0.02)
+    zono = reach(OSCILLATOR, initial=Zonotope([1.0, 0.0], [[0.1, 0.0], [0.0, 0.1]]), t_end=1.0,
+                 step=0.02)
+    poly = reach(OSCILLATOR, initial=Polytope([[1, 0], [-1, 0], [0, 1], [0, -1]],
+                                              [1.1, -0.9, 0.1, 0.1]), t_end=1.0, step=0.02)
+    for name in ("x", "v"):
+        assert box.bounds[name] == pytest.approx(zono.bounds[name], abs=1e-9)
+        assert box.bounds[name] == pytest.approx(poly.bounds[name], abs=1e-6)
