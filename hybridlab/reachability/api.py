@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import sympy as sp
 
 from hybridlab.errors import HybridlabError
 from hybridlab.model.loader import load_model
@@ -162,14 +163,27 @@ def reach(
         bounded[name] = _interval(value, f"inputs[{name!r}]")
     p = compiled.parameter_vector(point)
 
-    system = build_system(compiled, p, uncertain, bounded)
+    symbolic = compiled.symbolic
+    psym = dict(zip(pnames, symbolic.parameters, strict=True))
     for name in bounded:
-        sym = dict(zip(pnames, compiled.symbolic.parameters, strict=True))[name]
-        for idx, rows in system.guards.items():
-            if any(sym in e.free_symbols for e in rows.exprs):
-                raise ReachError(f"input {name!r} appears in the guard of transition "
-                                 f"{compiled.transitions[idx].name!r}; inputs may appear in "
-                                 "flows only")
+        for tr in symbolic.transitions:
+            where = [("guard", [r.expr for r in tr.guard]), ("reset", list(tr.reset)),
+                     ("schedule", [e for e in (tr.period, tr.phase) if e is not None])]
+            for part, exprs in where:
+                if any(psym[name] in sp.sympify(e).free_symbols for e in exprs):
+                    raise ReachError(f"input {name!r} appears in the {part} of transition "
+                                     f"{tr.name!r}; inputs may appear in flows only")
+        for mode_name, m in symbolic.modes.items():
+            if any(psym[name] in r.expr.free_symbols for r in m.invariants):
+                raise ReachError(f"input {name!r} appears in the invariant of mode "
+                                 f"{mode_name!r}; inputs may appear in flows only")
+    for name in uncertain:
+        for tr in symbolic.transitions:
+            if any(psym[name] in sp.sympify(e).free_symbols
+                   for e in (tr.period, tr.phase) if e is not None):
+                raise ReachError(f"uncertain parameter {name!r} sets the schedule of "
+                                 f"transition {tr.name!r}; scheduled instants must be known")
+    system = build_system(compiled, p, uncertain, bounded)
 
     names = compiled.state_names
     n = len(names)

@@ -28,6 +28,34 @@ class _Context:
     values: Mapping[sp.Symbol, float]
     inputs: Mapping[sp.Symbol, tuple[float, float]]
     t_index: int | None
+    #: compiled bound() expressions, per result (so thousands of sets parse each only once)
+    cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def compile(self, expr: str | sp.Expr) -> tuple[Any, ...]:
+        """``("linear", a, b)`` or ``("interval", f, uses_t)`` for :meth:`ReachSet.bound`."""
+        key = expr if isinstance(expr, str) else sp.sympify(expr)
+        if key in self.cache:
+            return self.cache[key]
+        e = parse_expression(expr, self.namespace) if isinstance(expr, str) else key
+        e = e.xreplace(dict(self.values))
+        t_sym = sp.Symbol("t", real=True)
+        zs = self.zsyms
+        free = e.free_symbols
+        unknown = free - set(zs) - set(self.inputs) - {t_sym}
+        if unknown:
+            raise ValueError(f"bound(): unknown symbol {sorted(map(str, unknown))[0]!r} in {e}")
+        linear = all(not sp.diff(e, z).free_symbols for z in zs) and not (
+            free & (set(self.inputs) | ({t_sym} if self.t_index is None else set())))
+        if linear:
+            a = np.array([float(sp.diff(e, z)) for z in zs])
+            b = float(e.xreplace(dict.fromkeys(zs, 0)))
+            out: tuple[Any, ...] = ("linear", a, b)
+        else:
+            uses_t = self.t_index is None and t_sym in free
+            syms = list(zs) + list(self.inputs) + ([t_sym] if uses_t else [])
+            out = ("interval", IntervalFunction([e], syms), uses_t)
+        self.cache[key] = out
+        return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -80,32 +108,20 @@ class ReachSet:
         True
         """
         ctx = self._context
-        e = parse_expression(expr, ctx.namespace) if isinstance(expr, str) else sp.sympify(expr)
-        e = e.xreplace(dict(ctx.values))
-        t_sym = sp.Symbol("t", real=True)
-        zs = ctx.zsyms
-        free = e.free_symbols
-        unknown = free - set(zs) - set(ctx.inputs) - {t_sym}
-        if unknown:
-            raise ValueError(f"bound(): unknown symbol {sorted(map(str, unknown))[0]!r} in {e}")
-        linear = all(not sp.diff(e, z).free_symbols for z in zs) and not (
-            free & (set(ctx.inputs) | ({t_sym} if ctx.t_index is None else set())))
-        if linear:
-            a = np.array([float(sp.diff(e, z)) for z in zs])
-            b = float(e.xreplace(dict.fromkeys(zs, 0)))
+        compiled = ctx.compile(expr)
+        if compiled[0] == "linear":
+            _, a, b = compiled
             hi = self._full.support(a) + b
             lo = -self._full.support(-a) + b
             slack = 1e-12 * (1.0 + abs(lo) + abs(hi))
-            return float(np.nextafter(lo - slack, -np.inf)), float(np.nextafter(hi + slack,
-                                                                                   np.inf))
-        box = self._full.bounds()
-        syms = list(zs) + list(ctx.inputs)
-        env = [Interval(float(lo), float(hi)) for lo, hi in box]
+            return (float(np.nextafter(lo - slack, -np.inf)),
+                    float(np.nextafter(hi + slack, np.inf)))
+        _, f, uses_t = compiled
+        env = [Interval(float(lo), float(hi)) for lo, hi in self._full.bounds()]
         env += [Interval(*ctx.inputs[s]) for s in ctx.inputs]
-        if ctx.t_index is None and t_sym in free:
-            syms.append(t_sym)
+        if uses_t:
             env.append(Interval(*self.t))
-        r = IntervalFunction([e], syms).intervals(env)[0]
+        r = f.intervals(env)[0]
         return r.lo, r.hi
 
     def contains(self, x: Sequence[float] | np.ndarray, tol: float = 1e-9) -> np.ndarray:
