@@ -34,7 +34,8 @@ import hybridlab
 
 __all__ = ["Agreement", "CHECK_ATOL", "CHECK_RTOL", "FREE_DROP_FRICTION_HORIZON",
            "OBSERVABLE_TOL", "FRICTION_TOL", "SAFE_MAX_STEP", "check", "compare",
-           "hybridlab_events", "is_friction", "normalise"]
+           "hybridlab_events", "is_friction", "normalise",
+           "reference_backend"]
 
 #: Tolerances of the agreement check (tight, so that the check tests the models,
 #: not the integrators).
@@ -134,6 +135,13 @@ def compare(a: Sequence[tuple[float, str]], b: Sequence[tuple[float, str]], *,
     return Agreement(counts, max_dt)
 
 
+def reference_backend() -> dict[str, str]:
+    """``simulate`` keywords selecting hybridlab's reference (scipy-stepped) engine."""
+    if "backend" in hybridlab.SimulationOptions.__dataclass_fields__:
+        return {"backend": "reference"}
+    return {}
+
+
 def _run_pair(job: str, compiled: hybridlab.CompiledModel, t_end: float | None, method: str,
               rtol: float, atol: float, max_step: float):
     if job == "free_drop":
@@ -147,7 +155,7 @@ def _run_pair(job: str, compiled: hybridlab.CompiledModel, t_end: float | None, 
     else:
         raise ValueError(f"job must be 'free_drop' or 'stop_and_return' (got {job!r})")
     theirs = hybridlab.simulate(compiled, t_end=t_end, scenario=scenario, method=method,
-                                rtol=rtol, atol=atol)
+                                rtol=rtol, atol=atol, **reference_backend())
     if not theirs.status.ok:
         raise RuntimeError(f"hybridlab stopped early: {theirs.status.name}: {theirs.message}")
     return ours, theirs
@@ -159,6 +167,8 @@ def check(job: str, compiled: hybridlab.CompiledModel | None = None, *,
           observable_tol: float = OBSERVABLE_TOL,
           friction_tol: float = FRICTION_TOL) -> Agreement:
     """Run ``job`` both ways and raise ``RuntimeError`` unless the event logs agree.
+
+    hybridlab runs on its reference backend.
 
     Parameters
     ----------

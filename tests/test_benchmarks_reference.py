@@ -86,7 +86,7 @@ def test_fig14_point_matches_hybridlab(compiled):
     hold = 3.0
     ours = scipy_trolley.fig14_point(0.25, 1.0, hold)
     result = hybridlab.simulate(compiled, params={"profile": 1.0, "p_1": 0.25, "a_max": 1.0},
-                                t_end=12.0 + hold)
+                                t_end=12.0 + hold, **trolley_check.reference_backend())
     arrive = next(e.t for e in result.jumps if e.transition == "arrive")
     theirs = sum(1 for e in result.jumps if e.transition in ("s1_on", "s1_off")
                  and e.t > arrive)
