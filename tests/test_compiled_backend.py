@@ -1,4 +1,4 @@
-"""The compiled (numba) backend against the reference engine, fallback and disk cache."""
+"""The compiled (numba) backend against the reference engine, hand-off, fallback, disk cache."""
 
 from __future__ import annotations
 
@@ -15,7 +15,9 @@ from hybridlab.errors import SimulationError
 
 pytest.importorskip("numba")
 
-# (model, scenario, t_end): every bundled model and scenario; the trolley on a short horizon
+# (model, scenario, t_end): every bundled model and scenario; the trolley on short horizons
+# (its stop-and-return up to the return to hold, and the first second of the free drop, both
+# with Filippov sliding of the cart friction, stick/slip and the two frictions at once)
 CASES = [
     ("bouncing_ball", "default", None),
     ("bouncing_ball", "zeno", None),
@@ -26,6 +28,8 @@ CASES = [
     ("relay_sliding", "escape", 4.0),
     ("friction_oscillator", "default", None),
     ("trolley", "step", 0.05),
+    ("trolley", "default", 2.1),
+    ("trolley", "free_drop", 1.0),
 ]
 
 
@@ -46,6 +50,9 @@ def _pair(model, **kw):
 def test_event_sequences_and_times_agree_with_the_reference(compiled_models, name, scenario,
                                                             t_end):
     fast, ref = _pair(compiled_models[name], scenario=scenario, t_end=t_end)
+    # the whole run on the kernel: no fallback, no hand-off to the reference engine
+    assert fast.stats["backend"] == "compiled"
+    assert "fallback" not in fast.stats and "handoff" not in fast.stats
     assert fast.status == ref.status
     assert [(e.transition, e.kind, e.source, e.target, e.j) for e in fast.events] == \
         [(e.transition, e.kind, e.source, e.target, e.j) for e in ref.events]
@@ -65,14 +72,71 @@ def test_event_sequences_and_times_agree_with_the_reference(compiled_models, nam
     np.testing.assert_allclose(fast(t), ref(t), rtol=1e-6, atol=1e-7)
 
 
-def test_smooth_models_run_compiled_and_sliding_ones_fall_back(compiled_models):
-    ball = hybridlab.simulate(compiled_models["bouncing_ball"], t_end=3.0)
-    assert ball.stats["backend"] == "compiled"
-    relay = hybridlab.simulate(compiled_models["relay_sliding"])
-    assert relay.stats["backend"] == "reference"
-    assert "reference engine" in relay.stats["fallback"]
+def test_sliding_runs_compiled_with_the_reference_slide_events(compiled_models):
+    relay = hybridlab.simulate(compiled_models["relay_sliding"], backend="compiled")
+    assert relay.stats["backend"] == "compiled" and "fallback" not in relay.stats
+    # x' = -sign(x) from x = 1: reaches x = 0 at t = 1 and slides there
+    assert [(e.kind, e.transition) for e in relay.events] == [("slide_start", "sign(x)")]
+    assert relay.events[0].t == pytest.approx(1.0, abs=1e-9)
+    assert relay(np.array([3.0]))[0] == pytest.approx(0.0, abs=1e-12)
     stiff = hybridlab.simulate(compiled_models["thermostat"], t_end=5.0, method="Radau")
     assert stiff.stats["backend"] == "reference" and "Radau" in stiff.stats["fallback"]
+
+
+def test_friction_oscillator_sticks_where_the_closed_form_says(compiled_models):
+    # d = 0: each half swing (pi/2 s) loses 2c/k = 0.25 of amplitude: x = 1 -> -0.75 -> 0.5 ->
+    # -0.25 -> 0, where |k x| = 0 <= c and the mass sticks for good (a sliding motion on v = 0)
+    fast = hybridlab.simulate(compiled_models["friction_oscillator"], backend="compiled",
+                              rtol=1e-11, atol=1e-13)
+    assert fast.stats["backend"] == "compiled"
+    half = np.pi / 2  # half period of sqrt(k/m) = 2
+    turns = [e for e in fast.events if e.kind in ("crossing", "slide_start")]
+    np.testing.assert_allclose([e.t for e in turns], half * np.arange(1, len(turns) + 1),
+                               atol=1e-9)
+    assert turns[-1].kind == "slide_start"
+    assert [e.pre["x"] for e in turns] == pytest.approx([-0.75, 0.5, -0.25, 0.0][:len(turns)],
+                                                        abs=1e-9)
+
+
+_SLIDE_THEN_BLOCK = """
+name = "slide_then_block"
+states = { x = 1.0, y = 0.0 }
+[modes.a]
+flow = { x = "-sign(x)", y = "1" }
+invariant = "y <= 2"
+[initial]
+mode = "a"
+"""
+
+_NOT_AFFINE = """
+name = "not_affine"
+states = { x = 1.0 }
+[modes.a]
+flow = { x = "-sign(x)*exp(sign(x))" }
+[initial]
+mode = "a"
+"""
+
+
+def test_rare_cases_hand_the_run_to_the_reference_midway():
+    model = hybridlab.model.loads_model(_SLIDE_THEN_BLOCK)
+    fast, ref = _pair(model, t_end=5.0)
+    # the slide at t = 1 is the kernel's; the invariant violation at t = 2 the reference's
+    assert fast.stats["backend"] == "compiled" and "fallback" not in fast.stats
+    assert "(handle)" in fast.stats["handoff"]
+    assert fast.status == ref.status == hybridlab.Status.INVARIANT_VIOLATED
+    assert fast.message == ref.message
+    assert [e.kind for e in fast.events] == [e.kind for e in ref.events] == ["slide_start"]
+    assert fast.events[0].t == pytest.approx(1.0, abs=1e-12)
+    assert fast.final.t == pytest.approx(2.0, abs=1e-12)
+    np.testing.assert_allclose(fast(np.array([0.5, 1.5])), ref(np.array([0.5, 1.5])), atol=1e-12)
+
+
+def test_non_affine_sliding_raises_like_the_reference():
+    model = hybridlab.model.loads_model(_NOT_AFFINE)
+    for backend in ("reference", "compiled"):
+        with pytest.raises(SimulationError, match="affine"):
+            hybridlab.simulate(model, t_end=3.0, backend=backend)
 
 
 def test_ball_closed_form_on_both_methods(compiled_models):

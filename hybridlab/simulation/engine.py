@@ -517,11 +517,27 @@ class _Run:
     def run(self, t0: float, x0: np.ndarray, mode_name: str) -> SimulationResult:
         mode = self.c.modes[mode_name]
         t, x = float(t0), np.asarray(x0, dtype=float).copy()
+        return self.drive(t, x, mode, "start")
+
+    def drive(self, t: float, x: np.ndarray, mode: CompiledMode, entry: str,
+              triggers: list[Trigger] | None = None) -> SimulationResult:
+        """Run from ``(t, x, mode)`` to the end; ``entry`` says where the run stands.
+
+        ``"start"``: a fresh run; ``"iterate"``: at an event iteration without
+        fresh guards (signs already entered); ``"handle"``: a flow segment just
+        ended on ``triggers`` (located with the monitors of the current sliding
+        set); ``"flow"``: at the top of the main loop. The compiled backend hands
+        a run over at these points.
+        """
         self.last = (t, x, mode)
         status, message, zeno_time = Status.COMPLETED, "", None
         try:
-            self.enter_mode(mode, t, x)
-            mode, x = self.event_iteration(mode, t, x, set(), set())[:2]
+            if entry == "start":
+                self.enter_mode(mode, t, x)
+            if entry in ("start", "iterate"):
+                mode, x = self.event_iteration(mode, t, x, set(), set())[:2]
+            elif entry == "handle":
+                mode, x = self.handle(mode, t, x, triggers or [], self.monitors(mode))
             self.last = (t, x, mode)
             while t < self.t_end:
                 t_stop = min(self.t_end, self.next_scheduled(mode, t))

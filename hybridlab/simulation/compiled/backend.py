@@ -21,6 +21,7 @@ import importlib.util
 import os
 import sys
 import weakref
+from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,7 +34,18 @@ from hybridlab.errors import ZenoError
 from hybridlab.simulation import engine
 from hybridlab.simulation.compiled.codegen import ModelSource, UnsupportedModel, generate
 from hybridlab.simulation.compiled.integrate import METHOD_CODES
-from hybridlab.simulation.compiled.kernel import COMPLETED, HANDOFF, MAX_EVENTS, ZENO, run_kernel
+from hybridlab.simulation.compiled.kernel import (
+    COMPLETED,
+    HANDOFF,
+    MAX_EVENTS,
+    R_FLOW,
+    R_HANDLE,
+    R_ITERATE,
+    R_START,
+    ZENO,
+    run_kernel,
+)
+from hybridlab.simulation.location import Trigger
 from hybridlab.simulation.options import SimulationOptions
 from hybridlab.simulation.result import Event, FinalState, Segment, SimulationResult, Status
 from hybridlab.simulation.zeno import ZenoVerdict
@@ -111,10 +123,11 @@ class Prepared:
     cache_hit: bool
     ints: tuple[np.ndarray, ...]
     mode_names: tuple[str, ...]
-    switch_keys: tuple[str, ...]
+    zeno_keys: tuple[str, ...]
     n_sig: int
 
 
+_SCHED_ON = 15  # index of the per-run "schedule enabled" table in Prepared.ints
 _PREPARED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # per-model memo
 
 
@@ -154,11 +167,13 @@ def prepare(compiled: CompiledModel) -> Prepared:
     index = {name: i for i, name in enumerate(compiled.modes)}
     n_tr = len(compiled.transitions)
     n_sig = max((len(md.switches) for md in modes), default=0)
+    # Zeno histories are kept per transition name and per switch text, as the reference does
     keys: dict[str, int] = {}
+    tr_zkey = [keys.setdefault(tr.name, len(keys)) for tr in compiled.transitions]
     sw_key = np.zeros(len(modes) * max(n_sig, 1), dtype=np.int64)
     for m, md in enumerate(modes):
         for k, sw in enumerate(md.switches):
-            sw_key[m * max(n_sig, 1) + k] = n_tr + keys.setdefault(sw.text, len(keys))
+            sw_key[m * max(n_sig, 1) + k] = keys.setdefault(f"switch:{sw.text}", len(keys))
     out_ptr, out_list = [0], []
     for md in modes:
         out_list += [tr.index for tr in md.outgoing]
@@ -169,13 +184,14 @@ def prepare(compiled: CompiledModel) -> Prepared:
             monitored[max(n_tr, 1) + tr.index] = tr.guard.size
             monitored[tr.index] = int(not tr.scheduled)
     ints = tuple(np.ascontiguousarray(a, dtype=np.int64) for a in (
-        source.flow_group, source.cond_group, source.switch_group,
+        source.flow_group, source.cond_group, source.switch_group, source.grad_group,
+        source.dsigma_group,
         [md.invariant_offset for md in modes], [md.invariants.size for md in modes],
         [len(md.switches) for md in modes], [int(md.affine_in_sigma) for md in modes],
         out_ptr, out_list or [0], [index[tr.target] for tr in compiled.transitions] or [0],
         list(source.guard_group) or [0], monitored,
         [int(tr.scheduled) for tr in compiled.transitions] or [0],
-        [0] * max(n_tr, 1), list(source.reset_group) or [0], sw_key,
+        [0] * max(n_tr, 1), list(source.reset_group) or [0], sw_key, tr_zkey or [0],
         [md.conditions.size if md.conditions is not None else 0 for md in modes]))
     prepared = Prepared(source, module, hit, ints, tuple(compiled.modes), tuple(keys), n_sig)
     _PREPARED[compiled] = prepared
@@ -213,46 +229,93 @@ def run(compiled: CompiledModel, *, t0: float, x0: np.ndarray, mode: str, t_end:
         if sched is not None:
             period[tr.index], phase[tr.index] = sched
             sched_on[tr.index] = 1
-    ints[13] = sched_on
+    ints[_SCHED_ON] = sched_on
     method = METHOD_CODES[o.method]
     opts_i = np.array([method, o.samples_per_step, o.max_refine, o.max_events,
                        o.max_event_iterations, o.zeno_window], dtype=np.int64)
     opts_f = np.array([o.rtol, o.atol, o.max_step, o.event_tol, o.event_atol, o.zeno_tol])
-    n_keys = n_tr + len(prep.switch_keys)
+    n_keys = len(prep.zeno_keys)
     ztimes = np.zeros((max(n_keys, 1), o.zeno_window + 1))
     zcount = np.zeros(max(n_keys, 1), dtype=np.int64)
     sched_done = np.full(max(n_tr, 1), -1, dtype=np.int64)
     m0 = prep.mode_names.index(mode)
-    (code, EV, PT, ST, SG, kstats, info, last_t, last_x, last_m, j,
-     _h_last) = run_kernel(prep.module.model, tuple(ints), (period, phase), opts_i, opts_f,
-                           float(t0), np.ascontiguousarray(x0, dtype=float), m0, float(t_end),
-                           np.ascontiguousarray(p, dtype=float), prep.n_sig, ztimes, zcount,
-                           sched_done)
+    out = run_kernel(prep.module.model, tuple(ints), (period, phase), opts_i, opts_f, float(t0),
+                     np.ascontiguousarray(x0, dtype=float), m0, float(t_end),
+                     np.ascontiguousarray(p, dtype=float), prep.n_sig, ztimes, zcount,
+                     sched_done)
+    code, EV, PT, ST, SG, kstats, info, last_t, last_x, last_m, j = out[:11]
     if code == HANDOFF:
-        return _fallback(compiled, "the kernel handed the run to the reference engine "
-                                   "(sliding, an invariant violation or another rare case)", **kw)
+        return _hand_off(compiled, prep, o, out, p, float(t_end), kw)
     return _result(compiled, prep, o, code, EV, PT, ST, SG, kstats, info, last_t, last_x,
                    last_m, j, p, float(t_end))
 
 
-def _result(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, code: int,
-            EV: np.ndarray, PT: np.ndarray, ST: np.ndarray, SG: np.ndarray, kstats: np.ndarray,
-            info: np.ndarray, last_t: float, last_x: np.ndarray, last_m: int, j: int,
-            p: np.ndarray, t_end: float) -> SimulationResult:
+_ENTRIES = {R_ITERATE: "iterate", R_HANDLE: "handle", R_FLOW: "flow"}
+
+
+def _hand_off(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, out: tuple,
+              p: np.ndarray, t_end: float, kw: dict) -> SimulationResult:
+    """Continue a run on the reference engine from the kernel's checkpoint."""
+    (_, EV, PT, ST, SG, kstats, _, _, _, _, _, _, cp_i, cp_f, cp_x, cp_sig, cp_slm, cp_zt,
+     cp_zc, cp_sd, cp_rows, cp_graz) = out
+    kind, m, j, nev, nsg = (int(v) for v in cp_i[:5])
+    if kind == R_START:
+        return _fallback(compiled, "the kernel could not enter the initial mode", **kw)
+    run = engine._Run(compiled, p, o, t_end)
+    mode = compiled.modes[prep.mode_names[m]]
+    events, segments = _records(compiled, prep, o, EV[:nev], PT, ST, SG[:nsg])
+    run.events = list(events)
+    run.segments = list(segments)
+    run.j = j
+    n_sw = len(mode.switches)
+    run.sigma = cp_sig[:n_sw].copy() if n_sw else engine._NO_SIGMA
+    run.sliding = tuple(int(k) for k in np.nonzero(cp_slm[:n_sw])[0])
+    run.sched_done = {i: int(v) for i, v in enumerate(cp_sd) if v >= 0
+                      and i < len(compiled.transitions)}
+    run.h_last = float(cp_f[1]) if cp_f[1] > 0 else None
+    window = o.zeno_window + 1
+    for key, name in enumerate(prep.zeno_keys):
+        count = int(cp_zc[key])
+        if count:
+            run.zeno._counts[name] = count
+            run.zeno._times[name] = deque(cp_zt[key, :min(count, window)].tolist(),
+                                          maxlen=window)
+    run.stats.update({"steps": int(kstats[0]), "refinements": int(kstats[1]),
+                      "events_located": int(kstats[2]), "segments": len(segments)})
+    triggers = None
+    if kind == R_HANDLE:
+        triggers = [Trigger(int(r), float(cp_f[0]), bool(g))
+                    for r, g in zip(cp_rows, cp_graz, strict=True)]
+    result = run.drive(float(cp_f[0]), cp_x.copy(), mode, _ENTRIES[kind], triggers)
+    t_hand = float(cp_f[0])
+    stats = {**result.stats, "backend": "compiled", "compiled_cache_hit": prep.cache_hit,
+             "handoff": f"the reference engine continued from t = {t_hand!r} "
+                        f"({_ENTRIES[kind]})"}
+    return SimulationResult(result.status, result.message, result.events, result.segments,
+                            result.final, result.state_names, result.zeno_time, stats,
+                            result.parameters, result.compiled)
+
+
+_KINDS = ("jump", "crossing", "slide_start", "slide_end")
+
+
+def _records(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, EV: np.ndarray,
+             PT: np.ndarray, ST: np.ndarray, SG: np.ndarray) -> tuple[list, list]:
+    """Events and segments from the kernel's records."""
     names = compiled.state_names
     n = len(names)
     modes = prep.mode_names
-    transitions = compiled.transitions
     cmodes = list(compiled.modes.values())
     events = []
     for row in EV:
         pre = dict(zip(names, row[7:7 + n].tolist(), strict=True))
         post = dict(zip(names, row[7 + n:].tolist(), strict=True))
         src, tgt = modes[int(row[3])], modes[int(row[4])]
-        if row[5] == 0:
-            label, kind = transitions[int(row[2])].name, "jump"
+        kind = _KINDS[int(row[5])]
+        if kind == "jump":
+            label = compiled.transitions[int(row[2])].name
         else:
-            label, kind = cmodes[int(row[3])].switches[int(row[2])].text, "crossing"
+            label = cmodes[int(row[3])].switches[int(row[2])].text
         events.append(Event(float(row[0]), int(row[1]), label, src, tgt, pre, post, kind,
                             bool(row[6])))
     method = METHOD_CODES[o.method]
@@ -262,6 +325,16 @@ def _result(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, code:
         segments.append(Segment(modes[mode_i], seg_j, pts[:, 0].copy(),
                                 np.ascontiguousarray(pts[:, 1:].T),
                                 StepInterpolants(method, n, ST[s0:s0 + nst])))
+    return events, segments
+
+
+def _result(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, code: int,
+            EV: np.ndarray, PT: np.ndarray, ST: np.ndarray, SG: np.ndarray, kstats: np.ndarray,
+            info: np.ndarray, last_t: float, last_x: np.ndarray, last_m: int, j: int,
+            p: np.ndarray, t_end: float) -> SimulationResult:
+    names = compiled.state_names
+    modes = prep.mode_names
+    events, segments = _records(compiled, prep, o, EV, PT, ST, SG)
     t, x, mode = float(last_t), np.asarray(last_x), modes[int(last_m)]
     if not segments or segments[-1].t_end < t or segments[-1].j != j:
         segments.append(Segment(mode, int(j), np.array([t]), x[:, None].copy()))
@@ -271,13 +344,11 @@ def _result(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, code:
     elif code == MAX_EVENTS:
         status, message = Status.MAX_EVENTS, f"{len(events)} events logged by t = {events[-1].t!r}"
     elif code == ZENO:
-        key = int(info[0])
-        n_tr = len(transitions)
-        label = transitions[key].name if key < n_tr else f"switch:{prep.switch_keys[key - n_tr]}"
+        label = prep.zeno_keys[int(info[0])]
         verdict = ZenoVerdict(label, int(info[1]), float(info[2]), float(info[3]))
         text = verdict.describe()
-        if key >= n_tr:
-            text = f"the discontinuity {prep.switch_keys[key - n_tr]} chatters: {text}"
+        if label.startswith("switch:"):
+            text = f"the discontinuity {label[7:]} chatters: {text}"
         if o.zeno == "error":
             raise ZenoError(f"Zeno behaviour: {text}")
         status, message, zeno_time = Status.ZENO, text, float(info[3])

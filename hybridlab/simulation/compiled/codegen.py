@@ -27,10 +27,14 @@ from hybridlab.model.checks import TIME
 from hybridlab.symbolic.compile import CompiledModel
 
 __all__ = ["OP_FLOW", "OP_COND", "OP_COND_LIE", "OP_SWITCH", "OP_SWITCH_LIE", "OP_RESET",
-           "OP_GUARD", "OP_GUARD_LIE", "ModelSource", "UnsupportedModel", "generate"]
+           "OP_GUARD", "OP_GUARD_LIE", "OP_SWITCH_GRAD", "OP_FLOW_DSIGMA", "ModelSource",
+           "UnsupportedModel", "generate"]
 
 OP_FLOW, OP_COND, OP_COND_LIE, OP_SWITCH, OP_SWITCH_LIE, OP_RESET, OP_GUARD, OP_GUARD_LIE = \
     range(8)
+#: sliding only: ``out[k*n + i] = d s_k / d x_i`` and ``out[i*m + k] = d f_i / d sigma_k``
+OP_SWITCH_GRAD, OP_FLOW_DSIGMA = 8, 9
+_N_OPS = 10
 
 
 class UnsupportedModel(Exception):
@@ -60,6 +64,9 @@ class ModelSource:
     flow_group, cond_group, switch_group : tuple of int
         Per mode (in ``compiled.modes`` order): the group of its flow,
         conditions (-1: none) and switching functions (-1: none).
+    grad_group, dsigma_group : tuple of int
+        Per mode: the group of the switching functions' state gradient and of
+        the flow's sigma-Jacobian (-1: the mode has no switch).
     reset_group, guard_group : tuple of int
         Per transition: the group of its reset and of its guard (-1: none).
     """
@@ -70,6 +77,8 @@ class ModelSource:
     switch_group: tuple[int, ...]
     reset_group: tuple[int, ...]
     guard_group: tuple[int, ...]
+    grad_group: tuple[int, ...] = ()
+    dsigma_group: tuple[int, ...] = ()
 
 
 def _body(exprs: Sequence[sp.Expr], names: dict[sp.Symbol, str], indent: str) -> list[str]:
@@ -145,8 +154,8 @@ def generate(compiled: CompiledModel) -> ModelSource:
     base.update({s: f"p[{i}]" for i, s in enumerate(sym.parameters)})
     flow_syms = [sp.Symbol(f"_f{i}", real=True) for i in range(len(sym.states))]
     with_f = {**base, **{s: f"f[{i}]" for i, s in enumerate(flow_syms)}}
-    ops = [_Groups() for _ in range(8)]
-    flow_g, cond_g, switch_g = [], [], []
+    ops = [_Groups() for _ in range(_N_OPS)]
+    flow_g, cond_g, switch_g, grad_g, dsig_g = [], [], [], [], []
     for mode in compiled.modes.values():
         sig = {s.symbol: f"sigma[{k}]" for k, s in enumerate(mode.switches)}
         flow_g.append(ops[OP_FLOW].add(mode.flow.exprs, {**base, **sig}))
@@ -160,8 +169,15 @@ def generate(compiled: CompiledModel) -> ModelSource:
             switch_g.append(ops[OP_SWITCH].add(
                 mode.switch_fields.values.exprs, {**base, **sig},
                 (ops[OP_SWITCH_LIE], mode.switch_fields._lie.exprs, {**with_f, **sig})))
+            sigmas = [s.symbol for s in mode.switches]
+            grad = [sp.diff(e, x) for e in mode.switch_fields.values.exprs for x in sym.states]
+            dsig = [sp.diff(e, s) for e in mode.flow.exprs for s in sigmas]
+            grad_g.append(ops[OP_SWITCH_GRAD].add(grad, {**base, **sig}))
+            dsig_g.append(ops[OP_FLOW_DSIGMA].add(dsig, {**base, **sig}))
         else:
             switch_g.append(-1)
+            grad_g.append(-1)
+            dsig_g.append(-1)
     reset_g, guard_g = [], []
     for tr in compiled.transitions:
         reset_g.append(ops[OP_RESET].add(tr.reset.exprs, base))
@@ -200,4 +216,4 @@ def generate(compiled: CompiledModel) -> ModelSource:
     if first_op:
         lines.append("    pass")
     return ModelSource("\n".join(lines) + "\n", tuple(flow_g), tuple(cond_g), tuple(switch_g),
-                       tuple(reset_g), tuple(guard_g))
+                       tuple(reset_g), tuple(guard_g), tuple(grad_g), tuple(dsig_g))

@@ -3,7 +3,9 @@
 A line-by-line port of scipy's ``RungeKutta._step_impl`` and dense output
 (same coefficients, same step-size control, same error norms), so that
 ``rtol``/``atol`` mean exactly what they mean for the reference backend and
-both backends take the same steps.
+both backends take the same steps. The right-hand side is
+:func:`.sliding.rhs` of a flow context ``fc`` (the plain flow, or the
+projected equivalent flow while switches slide).
 """
 
 # ruff: noqa: SIM108 - kept line by line with the scipy / reference code it ports
@@ -12,10 +14,11 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from numba import types
-from numba.extending import intrinsic
 from scipy.integrate._ivp import dop853_coefficients as _dop
 from scipy.integrate._ivp.rk import RK45 as _RK45
+
+from hybridlab.simulation.compiled.signatures import ptr
+from hybridlab.simulation.compiled.sliding import rhs
 
 __all__ = ["RK45", "DOP853", "METHOD_CODES", "ptr", "rk_step", "dense_coefficients",
            "dense_eval", "initial_step"]
@@ -44,24 +47,13 @@ N_K = (_RK_A.shape[0] + 1, _dop.N_STAGES_EXTENDED)
 N_COEF = (_RK_P.shape[1], _dop.INTERPOLATOR_POWER)
 
 
-@intrinsic
-def ptr(typingctx, arr):  # noqa: ARG001 - numba intrinsic protocol
-    """The data pointer of a contiguous array (to call a generated model)."""
-    sig = types.CPointer(arr.dtype)(arr)
-
-    def codegen(context, builder, signature, args):
-        return context.make_array(arr)(context, builder, args[0]).data
-
-    return sig, codegen
-
-
 @numba.njit(cache=True)
 def _rms(v: np.ndarray) -> float:
     return np.linalg.norm(v) / v.size ** 0.5
 
 
 @numba.njit(cache=True)
-def initial_step(model, fg, t0, y0, f0, t_bound, max_step, order, rtol, atol, p, sig, dummy):
+def initial_step(model, fc, t0, y0, f0, t_bound, max_step, order, rtol, atol, p, sig):
     """scipy's ``select_initial_step``."""
     interval = abs(t_bound - t0)
     if interval == 0.0:
@@ -76,7 +68,7 @@ def initial_step(model, fg, t0, y0, f0, t_bound, max_step, order, rtol, atol, p,
     h0 = min(h0, interval)
     y1 = y0 + h0 * f0
     f1 = np.empty_like(y0)
-    model(0, fg, t0 + h0, ptr(y1), ptr(p), ptr(sig), ptr(dummy), ptr(f1))
+    rhs(model, fc, t0 + h0, y1, p, sig, f1)
     d2 = _rms((f1 - f0) / scale) / h0
     if d1 <= 1e-15 and d2 <= 1e-15:
         h1 = max(1e-6, h0 * 1e-3)
@@ -86,7 +78,7 @@ def initial_step(model, fg, t0, y0, f0, t_bound, max_step, order, rtol, atol, p,
 
 
 @numba.njit(cache=True)
-def _stages(model, method, fg, t, y, f, h, p, sig, dummy, K, y_new, f_new, tmp):
+def _stages(model, method, fc, t, y, f, h, p, sig, K, y_new, f_new, tmp):
     """One Runge-Kutta step (``rk_step``): stages into ``K``, result into y_new, f_new."""
     n = y.size
     if method == RK45:
@@ -102,13 +94,13 @@ def _stages(model, method, fg, t, y, f, h, p, sig, dummy, K, y_new, f_new, tmp):
             for r in range(s):
                 acc += K[r, i] * A[s, r]
             tmp[i] = y[i] + acc * h
-        model(0, fg, t + C[s] * h, ptr(tmp), ptr(p), ptr(sig), ptr(dummy), ptr(K[s]))
+        rhs(model, fc, t + C[s] * h, tmp, p, sig, K[s])
     for i in range(n):
         acc = 0.0
         for r in range(ns):
             acc += K[r, i] * B[r]
         y_new[i] = y[i] + h * acc
-    model(0, fg, t + h, ptr(y_new), ptr(p), ptr(sig), ptr(dummy), ptr(f_new))
+    rhs(model, fc, t + h, y_new, p, sig, f_new)
     K[ns, :] = f_new
 
 
@@ -144,8 +136,8 @@ def _error_norm(method, K, h, scale):
 
 
 @numba.njit(cache=True)
-def rk_step(model, method, fg, t, y, f, t_bound, h_abs_in, max_step, rtol, atol, p, sig,
-            dummy, K, y_new, f_new, tmp):
+def rk_step(model, method, fc, t, y, f, t_bound, h_abs_in, max_step, rtol, atol, p, sig, K,
+            y_new, f_new, tmp):
     """scipy's ``_step_impl``; returns ``(ok, t_new, h_abs_next, h)``."""
     order_err = 4 if method == RK45 else 7
     exponent = -1.0 / (order_err + 1)
@@ -168,7 +160,7 @@ def rk_step(model, method, fg, t, y, f, t_bound, h_abs_in, max_step, rtol, atol,
             t_new = t_bound
         h = t_new - t
         h_abs = abs(h)
-        _stages(model, method, fg, t, y, f, h, p, sig, dummy, K, y_new, f_new, tmp)
+        _stages(model, method, fc, t, y, f, h, p, sig, K, y_new, f_new, tmp)
         for i in range(n):
             scale[i] = atol + max(abs(y[i]), abs(y_new[i])) * rtol
         err = _error_norm(method, K, h, scale)
@@ -186,7 +178,7 @@ def rk_step(model, method, fg, t, y, f, t_bound, h_abs_in, max_step, rtol, atol,
 
 
 @numba.njit(cache=True)
-def dense_coefficients(model, method, fg, t_old, h, y_old, y, f, p, sig, dummy, K, tmp, coef):
+def dense_coefficients(model, method, fc, t_old, h, y_old, y, f, p, sig, K, tmp, coef):
     """Interpolant of the last step into ``coef`` (``Q.T`` for RK45, ``F`` for DOP853)."""
     n = y.size
     if method == RK45:
@@ -204,7 +196,7 @@ def dense_coefficients(model, method, fg, t_old, h, y_old, y, f, p, sig, dummy, 
             for r in range(s):
                 acc += K[r, i] * _DP_A[s, r]
             tmp[i] = y_old[i] + acc * h
-        model(0, fg, t_old + _DP_C[s] * h, ptr(tmp), ptr(p), ptr(sig), ptr(dummy), ptr(K[s]))
+        rhs(model, fc, t_old + _DP_C[s] * h, tmp, p, sig, K[s])
     for i in range(n):
         dy = y[i] - y_old[i]
         coef[0, i] = dy

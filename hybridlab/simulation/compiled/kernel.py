@@ -1,19 +1,26 @@
-"""The compiled run loop: flow, event location and the common jump logic in numba.
+"""The compiled run loop: flow, event location, jumps and sliding in numba.
 
 ``run_kernel`` mirrors ``_Run.run`` of the reference engine (same order of
 operations, same tolerances): integrate a mode step by step, scan the
-monitors on each step's dense output, and at an event apply the event
-iteration (priorities, resets, the no-immediate-retrigger and
-boundary-leaving rules, schedules, Zeno tracking). Whatever it does not
-handle (Filippov sliding, several switching surfaces at once, invariant
-violations, zero-dwell cycles, failed steps, non-finite resets) makes it
-return :data:`HANDOFF`; the caller then runs the reference engine, so the
-two backends never differ in semantics.
+monitors on each step's dense output, and at an event update the signs of
+the switching surfaces (crossing, Filippov sliding with its joint active set,
+sliding exits; :mod:`.sliding`) and apply the event iteration (priorities,
+resets, the no-immediate-retrigger and boundary-leaving rules, schedules,
+Zeno tracking).
 
-Records grow by doubling: events ``EV`` (t, j, transition, source, target,
-kind, grazing, pre..., post...), stored points ``PT`` (t, y...), steps
-``ST`` (t_old, h, y_old..., coefficients...) and segments ``SG`` (mode, j,
-first point, points, first step, steps).
+What it does not handle (invariant violations, zero-dwell cycles, failed
+steps, non-finite resets, singular or non-affine sliding) makes it return
+:data:`HANDOFF` together with a *checkpoint*: the run state just before the
+flow segment or the event in which the case arose (time, state, mode, jump
+count, signs, sliding set, schedules, Zeno history, and the triggers of the
+event). The caller continues from there on the reference engine, which
+reproduces that segment or event and reports the case as it always does.
+
+Records grow by doubling: events ``EV`` (t, j, transition or switch, source,
+target, kind, grazing, pre..., post...; kind 0 jump, 1 crossing, 2
+slide_start, 3 slide_end), stored points ``PT`` (t, y...), steps ``ST``
+(t_old, h, y_old..., coefficients...) and segments ``SG`` (mode, j, first
+point, points, first step, steps).
 """
 
 # ruff: noqa: SIM102 - kept line by line with the scipy / reference code it ports
@@ -31,15 +38,28 @@ from hybridlab.simulation.compiled.integrate import (
     dense_coefficients,
     dense_eval,
     initial_step,
-    ptr,
     rk_step,
 )
-from hybridlab.simulation.compiled.locate import GUARD, INVARIANT, monitors_at, scan
+from hybridlab.simulation.compiled.locate import EXIT, GUARD, INVARIANT, SWITCH, monitors_at, scan
+from hybridlab.simulation.compiled.signatures import ptr
+from hybridlab.simulation.compiled.sliding import (
+    OK,
+    enter_mode,
+    flow_eq,
+    rhs,
+    update_switches,
+    workspace,
+)
 
-__all__ = ["run_kernel", "COMPLETED", "ZENO", "MAX_EVENTS", "HANDOFF"]
+__all__ = ["run_kernel", "COMPLETED", "ZENO", "MAX_EVENTS", "HANDOFF", "R_START", "R_ITERATE",
+           "R_HANDLE", "R_FLOW"]
 
 COMPLETED, ZENO, MAX_EVENTS, HANDOFF = 0, 1, 2, 3
-OP_FLOW, OP_SWITCH, OP_SWITCH_LIE, OP_RESET, OP_GUARD, OP_GUARD_LIE = 0, 3, 4, 5, 6, 7
+#: where a hand-off resumes: from the start, at an event iteration without fresh guards,
+#: at the handling of a flow segment's triggers, at the start of a flow segment
+R_START, R_ITERATE, R_HANDLE, R_FLOW = 0, 1, 2, 3
+OP_COND, OP_COND_LIE, OP_RESET, OP_GUARD, OP_GUARD_LIE = 1, 2, 5, 6, 7
+_ITERATE, _HANDLE, _FLOW = 0, 1, 2
 
 
 @numba.njit(cache=True)
@@ -93,42 +113,36 @@ def _zeno_record(ztimes, zcount, key, t, window, tol, resolution):
 
 
 @numba.njit(cache=True)
-def _sdot(model, sg, t, x, p, sig, f, sv, sd, dummy, fg, k):
-    model(OP_FLOW, fg, t, ptr(x), ptr(p), ptr(sig), ptr(dummy), ptr(f))
-    model(OP_SWITCH_LIE, sg, t, ptr(x), ptr(p), ptr(sig), ptr(f), ptr(sd))
-    return sd[k]
+def _fc(ints, m, slm, W):
+    """The flow context of mode ``m`` with the sliding set ``slm`` (see :mod:`.sliding`)."""
+    ns = ints[7][m]
+    c = 0
+    for k in range(ns):
+        if slm[k]:
+            c += 1
+    sl = np.empty(c, dtype=np.int64)
+    c = 0
+    for k in range(ns):
+        if slm[k]:
+            sl[c] = k
+            c += 1
+    return (ints[0][m], ints[2][m], ints[3][m], ints[4][m], ns, sl, W)
 
 
 @numba.njit(cache=True)
-def _resolve_one(model, fg, sg, affine, t, x, p, sig, k, f, sv, sd, dummy):
-    """resolve_switches for one switch on its surface; False: it slides (hand off)."""
-    previous = sig[k]
-    sig[k] = 1.0
-    d_plus = _sdot(model, sg, t, x, p, sig, f, sv, sd, dummy, fg, k)
-    sig[k] = -1.0
-    d_minus = _sdot(model, sg, t, x, p, sig, f, sv, sd, dummy, fg, k)
-    sig[k] = previous
-    leave = abs(d_plus - d_minus) <= 1e-14 * (abs(d_plus) + abs(d_minus))
-    if not leave:
-        if not affine:
-            return False
-        sig[k] = 0.0
-        b = _sdot(model, sg, t, x, p, sig, f, sv, sd, dummy, fg, k)
-        a = 0.5 * (d_plus - d_minus)
-        eq = -b / a
-        if abs(eq) > 1 + 1e-12:
-            sig[k] = 1.0 if eq > 0 else -1.0
-            return True
-        if d_plus <= 0 <= d_minus and d_minus > d_plus:
-            sig[k] = previous
-            return False
-    if d_plus > 0 and d_minus > 0:
-        sig[k] = 1.0
-    elif d_plus < 0 and d_minus < 0:
-        sig[k] = -1.0
-    else:
-        sig[k] = 1.0 if previous >= 0 else -1.0
-    return True
+def _log(EV, nev, t, j, ref, source, target, kind, grazing, pre, post):
+    EV = _grow(EV, nev)
+    n = pre.size
+    EV[nev, 0] = t
+    EV[nev, 1] = j
+    EV[nev, 2] = ref
+    EV[nev, 3] = source
+    EV[nev, 4] = target
+    EV[nev, 5] = kind
+    EV[nev, 6] = 1.0 if grazing else 0.0
+    EV[nev, 7:7 + n] = pre
+    EV[nev, 7 + n:7 + 2 * n] = post
+    return EV
 
 
 @numba.njit(cache=True)
@@ -136,14 +150,16 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
                sched_done):
     """Run from ``(t, x, m)`` to ``t_end``; see the module docstring for the records.
 
-    ``ints``: per mode flow/cond/switch group, invariant offset, invariants, switches,
-    affine flag, outgoing pointer; the outgoing list; per transition target, guard
-    group, monitored (0/1), scheduled (0/1), schedule enabled (0/1), reset group;
-    per mode the first Zeno key of its switches. ``reals``: per transition period,
-    phase. Returns the records and the final run state.
+    ``ints``: per mode flow/cond/switch/gradient/dsigma group, invariant offset,
+    invariants, switches, affine flag, outgoing pointer; the outgoing list; per
+    transition target, guard group, monitored (0/1, then guard rows), scheduled
+    (0/1), schedule enabled (0/1), reset group; per mode and switch the Zeno key;
+    per transition the Zeno key; per mode the condition rows. ``reals``: per
+    transition period, phase. Returns the records, the final run state and the
+    checkpoint (meaningful for :data:`HANDOFF`).
     """
-    (fgs, cgs, sgs, inv_off, n_inv, n_sw, affine, out_ptr, out_list, tr_target, tr_guard,
-     tr_monitored, tr_sched, tr_sched_on, tr_reset, sw_key, n_cond) = ints
+    (fgs, cgs, sgs, ggs, dgs, inv_off, n_inv, n_sw, affine, out_ptr, out_list, tr_target,
+     tr_guard, tr_monitored, tr_sched, tr_sched_on, tr_reset, sw_key, tr_zkey, n_cond) = ints
     period, phase = reals
     method, samples, max_refine, max_events, max_iter, window = (
         opts_i[0], opts_i[1], opts_i[2], opts_i[3], opts_i[4], opts_i[5])
@@ -154,11 +170,16 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
     nk, nc = N_K[method], N_COEF[method]
     order_err = 4 if method == 0 else 7
     x = x.copy()
-    sig = np.ones(max(n_sig, 1))
-    dummy = np.zeros(max(n, 1))
-    ws = (np.empty(n), np.empty(n), np.empty(max(np.max(n_cond), 1)),
-          np.empty(max(np.max(n_cond), 1)), np.empty(max(n_sig, 1)), np.empty(max(n_sig, 1)),
-          dummy)
+    ns = max(n_sig, 1)
+    sig = np.ones(ns)
+    slm = np.zeros(ns, dtype=np.bool_)
+    W = workspace(n, n_sig)
+    flag = W[11]
+    dummy = W[0]
+    eqv = np.empty(ns)
+    n_cmax = max(np.max(n_cond), 1)
+    ws = (np.empty(n), np.empty(n), np.empty(n_cmax), np.empty(n_cmax), np.empty(ns),
+          np.empty(ns), np.empty(ns))
     gv = np.empty(max(np.max(tr_monitored[n_tr:]) if n_tr else 1, 1))
     gd = np.empty(gv.size)
     mk = np.empty(0, dtype=np.int64)
@@ -167,7 +188,7 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
     hit_rows = np.empty(0, dtype=np.int64)
     hit_graz = np.zeros(0, dtype=np.bool_)
     hit_n = 0
-    w_sw = max(n_sig, 1)
+    w_sw = ns
     EV = np.empty((64, 7 + 2 * n))
     PT = np.empty((256, 1 + n))
     ST = np.empty((256, 2 + n + nc * n))
@@ -186,42 +207,97 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
     fired = np.zeros(max(n_tr, 1), dtype=np.bool_)
     fresh = np.zeros(max(n_tr, 1), dtype=np.bool_)
     grazing = np.zeros(max(n_tr, 1), dtype=np.bool_)
+    sw_hit = np.zeros(ns, dtype=np.bool_)
+    ex_hit = np.zeros(ns, dtype=np.bool_)
+    kinds = np.zeros(ns, dtype=np.int64)
+    # checkpoint: kind, mode, j, events, segments, triggers; t, h_last; state; signs; ...
+    cp_i = np.zeros(6, dtype=np.int64)
+    cp_f = np.zeros(2)
+    cp_x = x.copy()
+    cp_sig = sig.copy()
+    cp_slm = slm.copy()
+    cp_zt = ztimes.copy()
+    cp_zc = zcount.copy()
+    cp_sd = sched_done.copy()
+    cp_rows = np.zeros(0, dtype=np.int64)
+    cp_graz = np.zeros(0, dtype=np.bool_)
     code = COMPLETED
     last_t, last_x, last_m = t, x.copy(), m
-    phase_ = 0  # 0: entry iteration, 1: main loop
+    fc = _fc(ints, m, slm, W)
+    if enter_mode(model, fc, affine[m], t, x, p, sig, slm, event_atol) != OK:
+        code = HANDOFF
+        cp_i[0] = R_START
+        return (code, EV[:0].copy(), PT[:0].copy(), ST[:0].copy(), SG[:0].copy(), stats, info,
+                last_t, last_x, last_m, j, h_last, cp_i, cp_f, cp_x, cp_sig, cp_slm, cp_zt,
+                cp_zc, cp_sd, cp_rows, cp_graz)
+    fc = _fc(ints, m, slm, W)
+    action = _ITERATE
     while True:
-        # ---------------------------------------------------------------- event iteration
-        if phase_ == 0 or phase_ == 2:
-            if phase_ == 0:
-                # enter_mode at the start
-                ns = n_sw[m]
-                if ns > 0:
-                    for k in range(ns):
-                        sig[k] = 1.0
-                    model(OP_SWITCH, sgs[m], t, ptr(x), ptr(p), ptr(sig), ptr(dummy),
-                          ptr(ws[4]))
-                    tiny = -1
-                    for k in range(ns):
-                        if abs(ws[4][k]) <= event_atol:
-                            if tiny >= 0:
-                                code = HANDOFF
-                                break
-                            tiny = k
-                        sig[k] = 1.0 if ws[4][k] >= 0 else -1.0
-                    if code == HANDOFF:
-                        break
-                    if tiny >= 0 and not _resolve_one(model, fgs[m], sgs[m], affine[m], t, x,
-                                                      p, sig, tiny, ws[1], ws[4], ws[5],
-                                                      dummy):
+        if action != _FLOW:
+            # ------------------------------------------------------------ checkpoint
+            cp_i[0] = R_HANDLE if action == _HANDLE else R_ITERATE
+            cp_i[1], cp_i[2], cp_i[3], cp_i[4] = m, j, nev, nsg
+            cp_f[0], cp_f[1] = t, h_last
+            cp_x[:] = x
+            cp_sig[:] = sig
+            cp_slm[:] = slm
+            cp_zt[:] = ztimes
+            cp_zc[:] = zcount
+            cp_sd[:] = sched_done
+            fresh[:] = False
+            grazing[:] = False
+            stop = False
+            if action == _HANDLE:
+                cp_i[5] = hit_n
+                cp_rows = hit_rows[:hit_n].copy()
+                cp_graz = hit_graz[:hit_n].copy()
+                # ------------------------------------------------------------ handle
+                sw_hit[:] = False
+                ex_hit[:] = False
+                any_switch = False
+                for i in range(hit_n):
+                    r = hit_rows[i]
+                    if mk[r] == GUARD:
+                        fresh[mref[r]] = True
+                        if hit_graz[i]:
+                            grazing[mref[r]] = True
+                    elif mk[r] == SWITCH:
+                        sw_hit[mref[r]] = True
+                        any_switch = True
+                    elif mk[r] == EXIT:
+                        ex_hit[mref[r]] = True
+                        any_switch = True
+                if any_switch:
+                    if update_switches(model, fc, affine[m], t, x, p, sig, slm, sw_hit, ex_hit,
+                                       kinds) != OK:
                         code = HANDOFF
                         break
-                fresh[:] = False
-                grazing[:] = False
-            # event_iteration(mode, t, x, fresh, grazing)
+                    fc = _fc(ints, m, slm, W)
+                    for k in range(n_sw[m]):
+                        if kinds[k] == 0:
+                            continue
+                        EV = _log(EV, nev, t, j, k, m, m, kinds[k], False, x, x)
+                        nev += 1
+                        if nev >= max_events:
+                            code = MAX_EVENTS
+                            stop = True
+                            break
+                        key = sw_key[m * w_sw + k]
+                        zeno, ratio, acc = _zeno_record(ztimes, zcount, key, t, window,
+                                                        zeno_tol, 4 * event_tol)
+                        if zeno:
+                            last_t, last_m = t, m
+                            last_x[:] = x
+                            info[0], info[1], info[2], info[3] = key, zcount[key], ratio, acc
+                            code = ZENO
+                            stop = True
+                            break
+                    if stop:
+                        break
+            # ---------------------------------------------------------------- event iteration
             fired[:] = False
             previous = -1
             settled = False
-            stop = False
             for _ in range(max_iter):
                 chosen = -1
                 for oi in range(out_ptr[m], out_ptr[m + 1]):
@@ -245,8 +321,11 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
                         code = HANDOFF
                         stop = True
                         break
-                    # guard_state: G = min g_i and its slope
-                    model(OP_FLOW, fgs[m], t, ptr(x), ptr(p), ptr(sig), ptr(dummy), ptr(fcur))
+                    # guard_state: G = min g_i and its slope along the (equivalent) flow
+                    if not flow_eq(model, fc, t, x, p, sig, fcur, eqv):
+                        code = HANDOFF
+                        stop = True
+                        break
                     model(OP_GUARD, tr_guard[tr], t, ptr(x), ptr(p), ptr(sig), ptr(dummy),
                           ptr(gv))
                     model(OP_GUARD_LIE, tr_guard[tr], t, ptr(x), ptr(p), ptr(sig), ptr(fcur),
@@ -282,16 +361,7 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
                     break
                 j += 1
                 target = tr_target[chosen]
-                EV = _grow(EV, nev)
-                EV[nev, 0] = t
-                EV[nev, 1] = j
-                EV[nev, 2] = chosen
-                EV[nev, 3] = m
-                EV[nev, 4] = target
-                EV[nev, 5] = 0
-                EV[nev, 6] = 1.0 if grazing[chosen] else 0.0
-                EV[nev, 7:7 + n] = tmp
-                EV[nev, 7 + n:7 + 2 * n] = y_new
+                EV = _log(EV, nev, t, j, chosen, m, target, 0, grazing[chosen], tmp, y_new)
                 nev += 1
                 x[:] = y_new
                 if nev >= max_events:
@@ -304,39 +374,24 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
                     sched_done[chosen] = _sched_index(period[chosen], phase[chosen],
                                                       sched_done[chosen], t)
                 else:
-                    zeno, ratio, acc = _zeno_record(ztimes, zcount, chosen, t, window,
+                    key = tr_zkey[chosen]
+                    zeno, ratio, acc = _zeno_record(ztimes, zcount, key, t, window,
                                                     zeno_tol, 4 * event_tol)
                     if zeno:
                         last_t, last_m = t, target
                         last_x[:] = x
-                        info[0], info[1], info[2], info[3] = chosen, zcount[chosen], ratio, acc
+                        info[0], info[1], info[2], info[3] = key, zcount[key], ratio, acc
                         code = ZENO
                         stop = True
                         break
                 m = target
-                # enter_mode
-                ns = n_sw[m]
-                if ns > 0:
-                    for k in range(ns):
-                        sig[k] = 1.0
-                    model(OP_SWITCH, sgs[m], t, ptr(x), ptr(p), ptr(sig), ptr(dummy),
-                          ptr(ws[4]))
-                    tiny = -1
-                    for k in range(ns):
-                        if abs(ws[4][k]) <= event_atol:
-                            if tiny >= 0:
-                                code = HANDOFF
-                                stop = True
-                            tiny = k
-                        sig[k] = 1.0 if ws[4][k] >= 0 else -1.0
-                    if stop:
-                        break
-                    if tiny >= 0 and not _resolve_one(model, fgs[m], sgs[m], affine[m], t, x,
-                                                      p, sig, tiny, ws[1], ws[4], ws[5],
-                                                      dummy):
-                        code = HANDOFF
-                        stop = True
-                        break
+                slm[:] = False
+                fc = _fc(ints, m, slm, W)
+                if enter_mode(model, fc, affine[m], t, x, p, sig, slm, event_atol) != OK:
+                    code = HANDOFF
+                    stop = True
+                    break
+                fc = _fc(ints, m, slm, W)
                 fresh[:] = False
             if stop:
                 break
@@ -351,25 +406,25 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
                         sched_done[tr] = kk
             last_t, last_m = t, m
             last_x[:] = x
-            if phase_ == 2:
-                # the invariant rows hit by this event, when no jump fired
-                if not np.any(fired):
-                    for r in range(hit_n):
-                        if mk[hit_rows[r]] == INVARIANT:
-                            model(OP_FLOW, fgs[m], t, ptr(x), ptr(p), ptr(sig), ptr(dummy),
-                                  ptr(fcur))
-                            row = mstart[hit_rows[r]]
-                            model(1, cgs[m], t, ptr(x), ptr(p), ptr(sig), ptr(dummy),
-                                  ptr(ws[2]))
-                            model(2, cgs[m], t, ptr(x), ptr(p), ptr(sig), ptr(fcur),
-                                  ptr(ws[3]))
-                            if not (ws[3][row] >= 0 and ws[2][row] >= -event_atol):
-                                code = HANDOFF
-                                stop = True
-                                break
-                    if stop:
-                        break
-            phase_ = 1
+            if action == _HANDLE and not np.any(fired):
+                # an invariant reached without a jump: it must be touched and kept
+                for r in range(hit_n):
+                    if mk[hit_rows[r]] == INVARIANT:
+                        if not flow_eq(model, fc, t, x, p, sig, fcur, eqv):
+                            stop = True
+                            break
+                        row = mstart[hit_rows[r]]
+                        model(OP_COND, cgs[m], t, ptr(x), ptr(p), ptr(sig), ptr(dummy),
+                              ptr(ws[2]))
+                        model(OP_COND_LIE, cgs[m], t, ptr(x), ptr(p), ptr(sig), ptr(fcur),
+                              ptr(ws[3]))
+                        if not (ws[3][row] >= 0 and ws[2][row] >= -event_atol):
+                            stop = True
+                            break
+                if stop:
+                    code = HANDOFF
+                    break
+            action = _FLOW
         # ---------------------------------------------------------------- main loop
         if not t < t_end:
             break
@@ -381,7 +436,12 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
                 t_stop = min(t_stop, phase[tr] + kk * period[tr])
         if t_stop - t > _xtol(event_tol, t):
             # ------------------------------------------------------------ flow segment
-            fg, cg, sg = fgs[m], cgs[m], sgs[m]
+            cp_i[0], cp_i[1], cp_i[2], cp_i[3], cp_i[4] = R_FLOW, m, j, nev, nsg
+            cp_f[0], cp_f[1] = t, h_last
+            cp_x[:] = x
+            cp_sig[:] = sig
+            cp_slm[:] = slm
+            cg = cgs[m]
             M = 0
             for oi in range(out_ptr[m], out_ptr[m + 1]):
                 if tr_monitored[out_list[oi]] == 1:
@@ -403,9 +463,9 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
                 mk[r], mref[r], mstart[r], mlen[r] = INVARIANT, k, inv_off[m] + k, 1
                 r += 1
             for k in range(n_sw[m]):
-                mk[r], mref[r], mstart[r], mlen[r] = 2, k, 0, 1
+                mk[r], mref[r], mstart[r], mlen[r] = (EXIT if slm[k] else SWITCH), k, 0, 1
                 r += 1
-            md = (fg, cg, sg, mk, mref, mstart, mlen)
+            md = (fc, cg, mk, mref, mstart, mlen)
             SG = _grow(SG, nsg)
             SG[nsg, 0], SG[nsg, 1], SG[nsg, 2], SG[nsg, 4] = m, j, npt, nst
             PT = _grow(PT, npt)
@@ -427,32 +487,37 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
                         floors[r] = min(phi0[r, 0], 0.0) - band
                     if mk[r] == INVARIANT and phi0[r, 0] < -band:
                         code = HANDOFF
+                if flag[0] != 0:
+                    code = HANDOFF
                 if code == HANDOFF:
                     break
-            model(OP_FLOW, fg, t, ptr(x), ptr(p), ptr(sig), ptr(dummy), ptr(fcur))
+            rhs(model, fc, t, x, p, sig, fcur)
             if h_last > 0:
                 h_abs = min(h_last, t_stop - t)
             else:
-                h_abs = initial_step(model, fg, t, x, fcur, t_stop, max_step, order_err, rtol,
-                                     atol, p, sig, dummy)
+                h_abs = initial_step(model, fc, t, x, fcur, t_stop, max_step, order_err, rtol,
+                                     atol, p, sig)
             hit_n = 0
             hit_rows = np.empty(M, dtype=np.int64)
             while True:
-                ok, t_new, h_abs, h = rk_step(model, method, fg, t, x, fcur, t_stop, h_abs,
-                                              max_step, rtol, atol, p, sig, dummy, K, y_new,
-                                              f_new, tmp)
+                ok, t_new, h_abs, h = rk_step(model, method, fc, t, x, fcur, t_stop, h_abs,
+                                              max_step, rtol, atol, p, sig, K, y_new, f_new,
+                                              tmp)
                 stats[0] += 1
-                if not ok:
+                if not ok or flag[0] != 0:
                     code = HANDOFF
                     break
                 t_old = t
                 h_last = t_new - t_old
-                dense_coefficients(model, method, fg, t_old, h, x, y_new, f_new, p, sig,
-                                   dummy, K, tmp, coef)
+                dense_coefficients(model, method, fc, t_old, h, x, y_new, f_new, p, sig, K,
+                                   tmp, coef)
                 step = (method, coef, t_old, h, x)
                 nfire, rows, times, graz, armed = scan(
                     model, md, p, sig, ws, step, armed, has_floor, floors, t_old, t_new,
                     samples, max_refine, event_tol, event_atol, stats)
+                if flag[0] != 0:
+                    code = HANDOFF
+                    break
                 for r in range(M):
                     if armed[r]:
                         has_floor[r] = False
@@ -495,54 +560,7 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
             last_t, last_m = t, m
             last_x[:] = x
             if hit_n > 0:
-                # ------------------------------------------------------------ handle
-                fresh[:] = False
-                grazing[:] = False
-                n_switch_hit = 0
-                for i in range(hit_n):
-                    r = hit_rows[i]
-                    if mk[r] == GUARD:
-                        fresh[mref[r]] = True
-                        if hit_graz[i]:
-                            grazing[mref[r]] = True
-                    elif mk[r] == 2:
-                        n_switch_hit += 1
-                if n_switch_hit > 1:
-                    code = HANDOFF
-                    break
-                if n_switch_hit == 1:
-                    for i in range(hit_n):
-                        r = hit_rows[i]
-                        if mk[r] == 2:
-                            k = mref[r]
-                            if not _resolve_one(model, fg, sg, affine[m], t, x, p, sig, k,
-                                                ws[1], ws[4], ws[5], dummy):
-                                code = HANDOFF
-                                break
-                            EV = _grow(EV, nev)
-                            EV[nev, 0] = t
-                            EV[nev, 1] = j
-                            EV[nev, 2] = k
-                            EV[nev, 3] = m
-                            EV[nev, 4] = m
-                            EV[nev, 5] = 1
-                            EV[nev, 6] = 0.0
-                            EV[nev, 7:7 + n] = x
-                            EV[nev, 7 + n:7 + 2 * n] = x
-                            nev += 1
-                            if nev >= max_events:
-                                code = MAX_EVENTS
-                                break
-                            key = sw_key[m * w_sw + k]
-                            zeno, ratio, acc = _zeno_record(ztimes, zcount, key, t, window,
-                                                            zeno_tol, 4 * event_tol)
-                            if zeno:
-                                info[0], info[1], info[2], info[3] = key, zcount[key], ratio, acc
-                                code = ZENO
-                                break
-                    if code != COMPLETED:
-                        break
-                phase_ = 2
+                action = _HANDLE
                 continue
         t = t_stop
         due = False
@@ -554,10 +572,14 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
                     if abs(phase[tr] + kk * period[tr] - t) <= 2 * _xtol(event_tol, t):
                         due = True
         if t < t_end or due:
-            fresh[:] = False
-            grazing[:] = False
-            phase_ = 2  # the event iteration without fresh guards
+            action = _ITERATE  # the event iteration without fresh guards
             hit_n = 0
             continue
+    if code == HANDOFF and cp_i[0] == R_FLOW:
+        # a flow segment changes neither the Zeno history nor the schedules
+        cp_zt[:] = ztimes
+        cp_zc[:] = zcount
+        cp_sd[:] = sched_done
     return (code, EV[:nev].copy(), PT[:npt].copy(), ST[:nst].copy(), SG[:nsg].copy(), stats,
-            info, last_t, last_x, last_m, j, h_last)
+            info, last_t, last_x, last_m, j, h_last, cp_i, cp_f, cp_x, cp_sig, cp_slm, cp_zt,
+            cp_zc, cp_sd, cp_rows, cp_graz)

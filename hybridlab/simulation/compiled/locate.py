@@ -17,22 +17,40 @@ import math
 import numba
 import numpy as np
 
-from hybridlab.simulation.compiled.integrate import dense_eval, ptr
+from hybridlab.simulation.compiled.integrate import dense_eval
+from hybridlab.simulation.compiled.signatures import ptr
+from hybridlab.simulation.compiled.sliding import equivalent, flow_eq
 
-__all__ = ["monitors_at", "monitor_value", "sample_step", "scan"]
+__all__ = ["monitors_at", "monitor_value", "sample_step", "scan", "GUARD", "INVARIANT", "SWITCH",
+           "EXIT"]
 
 OP_FLOW, OP_COND, OP_COND_LIE, OP_SWITCH, OP_SWITCH_LIE = 0, 1, 2, 3, 4
-GUARD, INVARIANT, SWITCH = 0, 1, 2
+GUARD, INVARIANT, SWITCH, EXIT = 0, 1, 2, 3
 _CHECK_AT = 0.41421356237309515
 _EPS = np.finfo(np.float64).eps
 
 
 @numba.njit(cache=True)
+def _position(sl, k):
+    for a in range(sl.size):
+        if sl[a] == k:
+            return a
+    return 0
+
+
+@numba.njit(cache=True)
 def monitors_at(model, md, p, sig, ws, t, x, phi, dphi, col):
-    """Every monitor's value and slope at ``(t, x)`` into column ``col``."""
-    fg, cg, sg, mk, mref, mstart, mlen = md
-    xs, f, cv, cd, sv, sd, dummy = ws
-    model(OP_FLOW, fg, t, ptr(x), ptr(p), ptr(sig), ptr(dummy), ptr(f))
+    """Every monitor's value and slope at ``(t, x)`` into column ``col``.
+
+    The slope of a sliding exit (``1 - |sigma_eq|``) is left at zero here;
+    :func:`_batch` replaces it by finite differences over the batch, as the
+    reference engine does.
+    """
+    fc, cg, mk, mref, mstart, mlen = md
+    xs, f, cv, cd, sv, sd, eqv = ws
+    sg = fc[1]
+    dummy = fc[6][0]
+    flow_eq(model, fc, t, x, p, sig, f, eqv)
     if cg >= 0:
         model(OP_COND, cg, t, ptr(x), ptr(p), ptr(sig), ptr(dummy), ptr(cv))
         model(OP_COND_LIE, cg, t, ptr(x), ptr(p), ptr(sig), ptr(f), ptr(cd))
@@ -51,23 +69,31 @@ def monitors_at(model, md, p, sig, ws, t, x, phi, dphi, col):
         elif kind == INVARIANT:
             phi[r, col] = cv[mstart[r]]
             dphi[r, col] = cd[mstart[r]]
-        else:
+        elif kind == SWITCH:
             k = mref[r]
             phi[r, col] = sig[k] * sv[k]
             dphi[r, col] = sig[k] * sd[k]
+        else:
+            phi[r, col] = 1.0 - abs(eqv[_position(fc[5], mref[r])])
+            dphi[r, col] = 0.0
 
 
 @numba.njit(cache=True)
 def monitor_value(model, md, p, sig, ws, step, r, t):
     """One monitor's value at time ``t`` of the step (the root finders' inner loop)."""
-    fg, cg, sg, mk, mref, mstart, mlen = md
-    xs, f, cv, cd, sv, sd, dummy = ws
+    fc, cg, mk, mref, mstart, mlen = md
+    xs, f, cv, cd, sv, sd, eqv = ws
+    sg = fc[1]
+    dummy = fc[6][0]
     method, coef, t_old, h, y_old = step
     dense_eval(method, coef, t_old, h, y_old, t, xs)
     kind = mk[r]
     if kind == SWITCH:
         model(OP_SWITCH, sg, t, ptr(xs), ptr(p), ptr(sig), ptr(dummy), ptr(sv))
         return sig[mref[r]] * sv[mref[r]]
+    if kind == EXIT:
+        equivalent(model, fc, t, xs, p, sig, eqv)
+        return 1.0 - abs(eqv[_position(fc[5], mref[r])])
     model(OP_COND, cg, t, ptr(xs), ptr(p), ptr(sig), ptr(dummy), ptr(cv))
     if kind == INVARIANT:
         return cv[mstart[r]]
@@ -82,10 +108,28 @@ def monitor_value(model, md, p, sig, ws, step, r, t):
 def _batch(model, md, p, sig, ws, step, times, T, PHI, DPHI, n0):
     method, coef, t_old, h, y_old = step
     xs = ws[0]
+    mk = md[2]
     for i in range(times.size):
         dense_eval(method, coef, t_old, h, y_old, times[i], xs)
         T[n0 + i] = times[i]
         monitors_at(model, md, p, sig, ws, times[i], xs, PHI, DPHI, n0 + i)
+    nt = times.size
+    if nt < 2:
+        return
+    for r in range(mk.size):
+        if mk[r] != EXIT:
+            continue
+        # numpy.gradient(values, times) over the batch, in batch order
+        v = PHI[r, n0:n0 + nt]
+        DPHI[r, n0] = (v[1] - v[0]) / (times[1] - times[0])
+        DPHI[r, n0 + nt - 1] = (v[nt - 1] - v[nt - 2]) / (times[nt - 1] - times[nt - 2])
+        for i in range(1, nt - 1):
+            dx1 = times[i] - times[i - 1]
+            dx2 = times[i + 1] - times[i]
+            a = -dx2 / (dx1 * (dx1 + dx2))
+            b = (dx2 - dx1) / (dx1 * dx2)
+            c = dx1 / (dx2 * (dx1 + dx2))
+            DPHI[r, n0 + i] = a * v[i - 1] + b * v[i] + c * v[i + 1]
 
 
 @numba.njit(cache=True)
@@ -110,7 +154,7 @@ def _sgn(v):
 @numba.njit(cache=True)
 def sample_step(model, md, p, sig, ws, step, t0, t1, samples, max_refine, tol):
     """Samples of every monitor on ``[t0, t1]``, refined until resolved (see location.py)."""
-    M = md[3].size
+    M = md[2].size
     cap = 4 * (samples + 1)
     T = np.empty(cap)
     PHI = np.empty((M, cap))

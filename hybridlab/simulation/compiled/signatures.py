@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 from numba import types
+from numba.extending import intrinsic
 
-__all__ = ["MODEL_SIGNATURE", "MODEL_TYPE"]
+__all__ = ["MODEL_SIGNATURE", "MODEL_TYPE", "ptr"]
 
 _PTR = types.CPointer(types.float64)
 
@@ -13,3 +14,14 @@ MODEL_SIGNATURE = types.void(types.int64, types.int64, types.float64, _PTR, _PTR
                              _PTR)
 #: The first-class function type the kernel receives.
 MODEL_TYPE = types.FunctionType(MODEL_SIGNATURE)
+
+
+@intrinsic
+def ptr(typingctx, arr):  # noqa: ARG001 - numba intrinsic protocol
+    """The data pointer of a contiguous array (to call a generated model)."""
+    sig = types.CPointer(arr.dtype)(arr)
+
+    def codegen(context, builder, signature, args):
+        return context.make_array(arr)(context, builder, args[0]).data
+
+    return sig, codegen
