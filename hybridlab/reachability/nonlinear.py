@@ -71,6 +71,7 @@ class FlowStepper:
         self.n_sigma = len(self.mode.sigma_index)
         self._props: dict[tuple[bytes, bytes, float], Propagator] = {}
         self._remainder = np.zeros(len(self.mode.zsyms))
+        self._switch_lie = None
 
     def reset(self) -> None:
         """Forget the remainder guess (a new flowpipe starts)."""
@@ -110,9 +111,51 @@ class FlowStepper:
             now = self._sigma_signs(H)
             broken = (signs != 0) & (now != signs)
             if not np.any(broken):
-                return P_next, H
+                return self._attractive_cut(P, P_next, H, signs)
             signs = np.where(broken, 0.0, signs)
         raise StepError("the signs of the switching functions did not settle")  # unreachable
+
+    def _attractive_cut(self, P: Zonotope, P_next: Zonotope, H: Zonotope,
+                        signs: np.ndarray) -> tuple[Zonotope, Zonotope]:
+        """Keep a free switching function within its start range when its surface attracts.
+
+        If over the step's box the flow with ``sigma_k = +1`` has ``ds_k/dt <= 0`` and the
+        one with ``sigma_k = -1`` has ``ds_k/dt >= 0``, no Filippov solution can cross the
+        surface or move away from it: ``s_k`` moves monotonically towards 0 and stays there
+        (sliding). So over the step ``s_k`` stays within ``[min(0, s_lo), max(0, s_hi)]`` of
+        the start set, and ``H`` and ``P_next`` are cut to that slab (linear ``s_k`` only).
+        """
+        m = self.mode
+        free = np.flatnonzero((signs == 0) & m.switches.linear)
+        if free.size == 0:
+            return P_next, H
+        if self._switch_lie is None:
+            self._switch_lie = m.lie(m.switches)
+        box = H.bounds()
+        start = m.switches.range(P)
+        for k in free:
+            u_lo = np.r_[self.input_lo, np.where(signs == 0, -1.0, signs)]
+            u_hi = np.r_[self.input_hi, np.where(signs == 0, 1.0, signs)]
+            idx = len(self.input_lo) + k
+            u_lo[idx] = u_hi[idx] = 1.0
+            _, up = self._switch_lie(np.r_[box[:, 0], u_lo], np.r_[box[:, 1], u_hi])
+            u_lo[idx] = u_hi[idx] = -1.0
+            down, _ = self._switch_lie(np.r_[box[:, 0], u_lo], np.r_[box[:, 1], u_hi])
+            if not (up[k] <= 0 and down[k] >= 0):
+                continue
+            a, b = m.switches.a[k], m.switches.b[k]
+            lo, hi = min(0.0, start[k, 0]), max(0.0, start[k, 1])
+            for Z_name in ("H", "P_next"):
+                Z = H if Z_name == "H" else P_next
+                Z = Z.intersect_halfspace(a, hi - b)     # a z + b <= hi
+                Z = Z.intersect_halfspace(-a, b - lo) if Z is not None else None
+                if Z is None:  # cannot happen for a sound H; keep the uncut set then
+                    continue
+                if Z_name == "H":
+                    H = Z
+                else:
+                    P_next = Z
+        return P_next, H
 
     def _step_with(self, P: Zonotope, r: float, signs: np.ndarray
                    ) -> tuple[Zonotope, Zonotope]:

@@ -304,7 +304,8 @@ class Zonotope:
         Each generator factor's range ``[-1, 1]`` is narrowed to what the
         halfspace allows given the others' extremes (one pass of interval
         constraint propagation), and the zonotope is re-centred on the narrowed
-        factors. Exact when one generator alone crosses the boundary.
+        factors. Exact in one dimension and when one generator alone crosses the
+        boundary; otherwise the other generators' spread limits the cut.
 
         Examples
         --------
@@ -322,6 +323,15 @@ class Zonotope:
             return None
         if spread <= s:
             return self
+        if self.dim == 1 and a[0] != 0:  # an interval: cut it exactly
+            lo_x, hi_x = self.bounds()[0]
+            edge = float(b) / a[0]
+            edge = edge + abs(edge) * 1e-15 + 1e-300 if a[0] > 0 else edge - abs(edge) * 1e-15 \
+                - 1e-300
+            lo_x, hi_x = (lo_x, min(hi_x, edge)) if a[0] > 0 else (max(lo_x, edge), hi_x)
+            if lo_x > hi_x:
+                return None
+            return Zonotope([0.5 * (lo_x + hi_x)], [[np.nextafter(0.5 * (hi_x - lo_x), np.inf)]])
         lo, hi = -np.ones(d.size), np.ones(d.size)
         room = s + slack + spread  # s minus the others' minimum, before removing |d_i|
         for i in np.flatnonzero(np.abs(d) > 1e-300):
