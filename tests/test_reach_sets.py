@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 import sympy as sp
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import linprog
 
@@ -177,6 +177,8 @@ def test_halfspace_intersection_keeps_every_point_that_satisfies_it(Z, a, b):
        lo=st.floats(-10, 10), width=st.floats(0, 5))
 def test_slab_bounds_match_highs(Z, a, lo, width):
     a = np.array(a)
+    # HiGHS drops coefficients below its tolerance, the dual does not: compare where both hold
+    assume(np.all((a == 0) | (np.abs(a) > 1e-6)))
     hi = lo + width
     got = Z.bounds_in_slab(a, lo, hi)
     G, c = Z.generators, Z.center
