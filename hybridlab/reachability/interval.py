@@ -33,12 +33,23 @@ class IntervalError(HybridlabError, ValueError):
     """An expression cannot be enclosed by interval arithmetic (unsupported function)."""
 
 
+_MAX = float(np.finfo(float).max)
+
+
 def _down(x: float) -> float:
-    return float(np.nextafter(x, -_INF)) if math.isfinite(x) else x
+    """A lower bound of the exact value whose rounded result is ``x``; an overflow to
+    ``+inf`` is a finite number too large to represent, so its lower bound is the
+    largest float."""
+    if math.isfinite(x):
+        return float(np.nextafter(x, -_INF))
+    return _MAX if x > 0 else x
 
 
 def _up(x: float) -> float:
-    return float(np.nextafter(x, _INF)) if math.isfinite(x) else x
+    """An upper bound of the exact value whose rounded result is ``x`` (see :func:`_down`)."""
+    if math.isfinite(x):
+        return float(np.nextafter(x, _INF))
+    return -_MAX if x < 0 else x
 
 
 def _widen(lo: float, hi: float, ulps: int = 4) -> tuple[float, float]:
