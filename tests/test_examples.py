@@ -23,6 +23,9 @@ NOT_RUN_HERE = {
     "reproduce_paper.py": "CLI --out/--plots/--fast; run by test_reproduce_paper_fast",
 }
 
+#: Extra arguments for scripts whose full run is too long for the suite.
+FAST_ARGS = {"sweep_fig14.py": ["--fast"]}
+
 EXAMPLES = sorted(p for p in EXAMPLES_DIR.glob("*.py") if p.name not in NOT_RUN_HERE)
 
 
@@ -35,7 +38,7 @@ def test_the_documented_examples_exist():
 def test_example_runs_and_its_checks_pass(script, tmp_path):
     plot = tmp_path / f"{script.stem}.png"
     proc = subprocess.run(
-        [sys.executable, str(script), "--plot", str(plot)],
+        [sys.executable, str(script), "--plot", str(plot), *FAST_ARGS.get(script.name, [])],
         cwd=tmp_path, capture_output=True, text=True, timeout=120,
     )
     assert proc.returncode == 0, (
