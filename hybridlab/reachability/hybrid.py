@@ -48,7 +48,7 @@ from hybridlab.reachability.linear import StepError
 from hybridlab.reachability.nonlinear import FlowStepper
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.result import ReachResult, ReachSet, _Context
-from hybridlab.reachability.sets import Box, Zonotope
+from hybridlab.reachability.sets import Box, SetError, Zonotope
 from hybridlab.reachability.system import Rows, System
 
 __all__ = ["Item", "run_analysis"]
@@ -252,7 +252,7 @@ class _Analysis:
                 r = self.step
             try:
                 P_next, H = stepper.step(P, r)
-            except StepError as exc:
+            except (StepError, SetError) as exc:  # SetError: a set became non-finite
                 self._reason(f"mode {item.mode!r} at t = {start_lo:.6g}: {exc}")
                 break
             t0 = start_lo

@@ -206,5 +206,9 @@ class FlowStepper:
         if not np.all(np.isfinite(mag)):
             raise StepError(f"mode {self.mode.name!r}: the Hessian is unbounded over the set "
                             f"(a division by a range containing zero?)")
-        bound = 0.5 * np.einsum("ijk,j,k->i", mag, delta, delta)
+        with np.errstate(over="ignore", invalid="ignore"):
+            bound = 0.5 * np.einsum("ijk,j,k->i", mag, delta, delta)
+        if not np.all(np.isfinite(bound)):
+            raise StepError(f"mode {self.mode.name!r}: the linearisation remainder overflows "
+                            "(the set has blown up); lower `step` or shrink the initial set")
         return np.nextafter(bound * (1 + 1e-12), np.inf)

@@ -24,9 +24,10 @@ class ReachOptions:
         Zonotope order kept after each step (generators per dimension); excess
         generators are boxed (Girard's method). Higher is tighter and slower.
     taylor_terms : int
-        Terms of the matrix exponential's Taylor series; the remainder is
-        bounded soundly whatever the value, it only needs ``|A| * step`` below
-        ``(taylor_terms + 2) / 2``.
+        Least number of terms of the matrix exponential's Taylor series; more
+        are taken (up to 80) until the remainder bound, sound for any number of
+        terms, is below ``1e-15`` (stiff modes need many). ``|A| * step`` must stay
+        below 41.
     max_jumps : int
         Longest run of jumps followed; a branch cut here makes the result
         incomplete.
