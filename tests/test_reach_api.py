@@ -164,3 +164,26 @@ def test_plot_draws_flowpipes_and_traces(models_dir, tmp_path):
     assert (tmp_path / "pipe.png").stat().st_size > 1000
     with pytest.raises(ValueError, match="unknown variable 'w'"):
         r.plot("w", "h")
+
+
+def test_split_initial_set_succeeds_where_the_whole_set_is_too_wide():
+    cubic = hybridlab.loads_model('''
+name = "cubic"
+states = { x = 1.0 }
+[modes.on]
+flow = { x = "-x**3" }
+[initial]
+mode = "on"
+''')
+    whole = reach(cubic, initial={"x": (0.5, 2.0)}, t_end=1.0, step=0.02)
+    assert not whole.complete  # x' = -x^3 is too curved over [0.5, 2] for one linearisation
+    split = reach(cubic, initial={"x": (0.5, 2.0)}, t_end=1.0, step=0.02, split=4)
+    assert split.complete and split.options.split == 4
+    exact = np.array([0.5, 2.0]) / np.sqrt(1 + 2 * np.array([0.5, 2.0]) ** 2)  # at t = 1
+    final = [s for s in split.sets if s.t[1] >= 1.0]
+    lo = min(s.bounds()[0, 0] for s in final)
+    hi = max(s.bounds()[0, 1] for s in final)
+    assert lo <= exact[0] and hi >= exact[1] and hi - lo < (exact[1] - exact[0]) + 0.05
+    assert split.bounds["x"][0] <= exact[0] and split.bounds["x"][1] >= 2.0
+    with pytest.raises(ReachError, match="pieces"):
+        reach(cubic, initial={"x": (0.5, 2.0)}, t_end=1.0, split=5000)

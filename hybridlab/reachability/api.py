@@ -14,7 +14,7 @@ from hybridlab.model.loader import load_model
 from hybridlab.model.schema import Model
 from hybridlab.reachability.hybrid import run_analysis
 from hybridlab.reachability.options import ReachOptions
-from hybridlab.reachability.result import ReachResult
+from hybridlab.reachability.result import ReachResult, merge_results
 from hybridlab.reachability.sets import Box, Polytope, Zonotope, as_zonotope
 from hybridlab.reachability.system import build_system
 from hybridlab.symbolic.compile import CompiledModel, compile_model
@@ -221,4 +221,26 @@ def reach(
     opts = (options or ReachOptions()).updated(**option_overrides)
     if opts.step is None:
         opts = opts.updated(step=(t_end - t0) / 400.0)
-    return run_analysis(system, opts, mode, P0, t0, t_end, p)
+    if opts.split == 1:
+        return run_analysis(system, opts, mode, P0, t0, t_end, p)
+    pieces = _split(P0, opts.split)
+    return merge_results([run_analysis(system, opts, mode, piece, t0, t_end, p)
+                          for piece in pieces])
+
+
+_MAX_PIECES = 4096
+
+
+def _split(Z: Zonotope, k: int) -> list[Zonotope]:
+    """``Z`` cut into ``k`` equal pieces along each generator (their union is ``Z``)."""
+    G = Z.compact().generators
+    m = G.shape[1]
+    if k ** m > _MAX_PIECES:
+        raise ReachError(f"split={k} over {m} uncertain directions gives {k ** m} pieces; "
+                         f"at most {_MAX_PIECES} are allowed")
+    offsets = -1.0 + (2.0 * np.arange(k) + 1.0) / k   # centres of the k sub-intervals of [-1, 1]
+    pieces = []
+    for idx in np.ndindex(*([k] * m)):
+        shift = G @ offsets[list(idx)] if m else np.zeros(Z.dim)
+        pieces.append(Zonotope(Z.center + shift, G / k))
+    return pieces

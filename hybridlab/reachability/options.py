@@ -53,6 +53,11 @@ class ReachOptions:
     bloat : float
         Relative enlargement of every computed set covering floating-point
         rounding of the matrix products.
+    split : int
+        Split the initial set into this many pieces along each of its
+        generators (each uncertain initial state or parameter) and analyse
+        the pieces separately: ``split ** m`` analyses, each with a smaller set,
+        so nonlinear remainders and clustering hulls shrink.
 
     Examples
     --------
@@ -70,6 +75,7 @@ class ReachOptions:
     remainder_iterations: int = 8
     fixpoint: bool = True
     bloat: float = 1e-12
+    split: int = 1
 
     def __post_init__(self) -> None:
         if self.step is not None and not (float(self.step) > 0 and float(self.step) < 1e300):
@@ -90,6 +96,8 @@ class ReachOptions:
         if not (isinstance(self.remainder_iterations, int) and self.remainder_iterations >= 1):
             raise ValueError("remainder_iterations must be a positive integer "
                              f"(got {self.remainder_iterations!r})")
+        if not (isinstance(self.split, int) and self.split >= 1):
+            raise ValueError(f"split must be a positive integer (got {self.split!r})")
         if not 0 <= self.bloat < 1e-3:
             raise ValueError(f"bloat must be in [0, 1e-3) (got {self.bloat!r})")
 

@@ -16,7 +16,7 @@ from hybridlab.reachability.interval import Interval, IntervalFunction
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.sets import Zonotope
 
-__all__ = ["ReachSet", "ReachResult"]
+__all__ = ["ReachSet", "ReachResult", "merge_results"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -257,3 +257,33 @@ class ReachResult:
         if path is not None:
             Path(path).write_text(text + "\n")
         return text
+
+
+def merge_results(results: Sequence[ReachResult]) -> ReachResult:
+    """One result from the analyses of the pieces of a split initial set.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> whole = hybridlab.reach("models/thermostat.toml", initial={"T": (19.0, 21.0)},
+    ...                         t_end=2.0, step=0.1)
+    >>> merged = merge_results([whole, whole])
+    >>> len(merged.sets) == 2 * len(whole.sets), merged.bounds == whole.bounds
+    (True, True)
+    """
+    if not results:
+        raise ValueError("merge_results needs at least one result")
+    first = results[0]
+    sets = tuple(s for r in results for s in r.sets)
+    bounds: dict[str, tuple[float, float]] = {}
+    for r in results:
+        for k, (lo, hi) in r.bounds.items():
+            old = bounds.get(k)
+            bounds[k] = (lo, hi) if old is None else (min(old[0], lo), max(old[1], hi))
+    reasons = tuple(dict.fromkeys(x for r in results for x in r.incomplete_reasons))
+    return ReachResult(
+        sets=sets, bounds=bounds,
+        reachable_modes=frozenset().union(*(r.reachable_modes for r in results)),
+        complete=all(r.complete for r in results), incomplete_reasons=reasons,
+        fixpoint=all(r.fixpoint for r in results), time_s=sum(r.time_s for r in results),
+        state_names=first.state_names, t_span=first.t_span, options=first.options)
