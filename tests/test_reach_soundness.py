@@ -81,3 +81,36 @@ def test_covers_rejects_states_outside_and_wrong_modes(models_dir):
     t = np.array([0.3, 0.3, 0.3])           # cool is entered at t >= 10 ln(19/18) = 0.54
     X = np.array([[21.0], [30.0], [21.0]])
     assert result.covers(t, X, ["heat", "heat", "cool"]).tolist() == [True, False, False]
+
+
+def test_time_varying_input_trajectories_lie_in_the_flowpipes():
+    """x' = -x + u, y' = x - y with u(t) in [-1, 1] switching at random instants: every
+    sample of every such trajectory (closed form per constant piece) is in the flowpipes."""
+    model = hybridlab.loads_model('''
+name = "driven_decay"
+parameters = { u = 0.0 }
+states = { x = 0.0, y = 0.0 }
+[modes.on]
+flow = { x = "-x + u", y = "x - y" }
+[initial]
+mode = "on"
+''')
+    t_end = 3.0
+    result = reach(model, initial={"x": (-0.2, 0.2)}, inputs={"u": (-1.0, 1.0)}, t_end=t_end,
+                   step=0.01)
+    assert result.complete
+    rng = np.random.default_rng(3)
+    extreme = 0.0
+    for run in range(40):
+        t0, x0, y0 = 0.0, float(rng.uniform(-0.2, 0.2)), 0.0
+        while t0 < t_end:
+            t1 = min(t_end, t0 + float(rng.uniform(0.05, 0.6)))
+            u = float(rng.choice([-1.0, 1.0])) if run % 2 else float(rng.uniform(-1, 1))
+            tau = np.linspace(0.0, t1 - t0, 150)
+            x = u + (x0 - u) * np.exp(-tau)
+            y = u + (x0 - u) * tau * np.exp(-tau) + (y0 - u) * np.exp(-tau)
+            inside = result.covers(t0 + tau, np.column_stack([x, y]), "on", tol=1e-9)
+            assert inside.all(), (run, t0 + tau[~inside][0])
+            extreme = max(extreme, float(np.abs(x).max()))
+            t0, x0, y0 = t1, float(x[-1]), float(y[-1])
+    assert extreme > 0.5   # the inputs really drove the state around
