@@ -18,7 +18,10 @@ def test_sweep_on_a_local_cluster_equals_the_serial_sweep():
     model = hybridlab.load_model(BALL)
     kwargs = {"grid": {"e": [0.7, 0.8, 0.9], "h": [4.0, 8.0]}, "t_end": 3.0,
               "observe": {"v_end": "v", "top": ("max", "h")},
-              "events": ["bounce", Count("bounce", after="bounce")], "chunksize": 2}
+              "events": ["bounce", Count("bounce", after="bounce")], "chunksize": 2,
+              # fresh worker processes: the reference backend spares each a numba cache load,
+              # which keeps this test well inside its time budget on a busy machine
+              "backend": "reference"}
     serial = sweep(model, executor="serial", **kwargs)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   host="127.0.0.1", dashboard_address=None) as cluster, \
