@@ -175,17 +175,22 @@ def test_halfspace_intersection_keeps_every_point_that_satisfies_it(Z, a, b):
 
 @settings(max_examples=30, deadline=None)
 @given(Z=zonotopes(n=3, max_m=5), a=st.lists(st.floats(-2, 2), min_size=3, max_size=3),
-       lo=st.floats(-10, 10), width=st.floats(0, 5))
-def test_slab_bounds_match_highs(Z, a, lo, width):
+       lo=st.floats(-10, 10), width=st.floats(0, 5), side=st.sampled_from(["both", "lo", "hi"]))
+def test_slab_bounds_match_highs(Z, a, lo, width, side):
     a = np.array(a)
     # HiGHS drops coefficients below its tolerance, the dual does not: compare where both hold
     assume(np.all((a == 0) | (np.abs(a) > 1e-6)))
     hi = lo + width
+    if side == "lo":      # a . x >= lo only
+        hi = math.inf
+    elif side == "hi":    # a . x <= hi only
+        lo = -math.inf
     got = Z.bounds_in_slab(a, lo, hi)
     G, c = Z.generators, Z.center
     m = G.shape[1]
-    A = np.vstack([a, -a]) @ G
-    rhs = np.array([hi - a @ c, a @ c - lo])
+    rows = [(a, hi)] if side == "hi" else [(-a, -lo)] if side == "lo" else [(a, hi), (-a, -lo)]
+    A = np.array([r for r, _ in rows]) @ G
+    rhs = np.array([b - r @ c for r, b in rows])
     if m == 0:
         return
     ref = []

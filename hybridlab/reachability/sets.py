@@ -383,8 +383,12 @@ class Zonotope:
         C = np.vstack([G, -G])                                   # (2n, m)
         mus = np.concatenate([-C[:, nz] / d[nz], np.zeros((2 * G.shape[0], 1))], axis=1)
         vals = -np.sum(np.abs(C[:, None, :] + mus[:, :, None] * d[None, None, :]), axis=2)
-        vals -= np.maximum(mus * u if np.isfinite(u) else np.where(mus > 0, np.inf, 0.0),
-                           mus * l if np.isfinite(l) else np.where(mus < 0, np.inf, 0.0))
+        # mu * u and mu * l with an infinite end: +-inf by the sign of mu (0 at mu = 0)
+        with np.errstate(invalid="ignore"):
+            mu_u = mus * u if np.isfinite(u) else np.sign(mus) * np.inf * np.sign(u)
+            mu_l = mus * l if np.isfinite(l) else np.sign(mus) * np.inf * np.sign(l)
+            vals -= np.maximum(np.nan_to_num(mu_u, nan=0.0, posinf=np.inf, neginf=-np.inf),
+                               np.nan_to_num(mu_l, nan=0.0, posinf=np.inf, neginf=-np.inf))
         vals = np.where(np.isnan(vals), -np.inf, vals)
         best = np.argmax(vals, axis=1)
         mu = mus[np.arange(C.shape[0]), best]
