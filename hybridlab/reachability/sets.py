@@ -305,7 +305,9 @@ class Zonotope:
         halfspace allows given the others' extremes (one pass of interval
         constraint propagation), and the zonotope is re-centred on the narrowed
         factors. Exact in one dimension and when one generator alone crosses the
-        boundary; otherwise the other generators' spread limits the cut.
+        boundary; otherwise the other generators' spread limits the cut. (The strip
+        enclosure of Bravo, Alamo and Camacho 2006 was tried: smaller sets at the cut,
+        but the rotated generators made the later flowpipe looser.)
 
         Examples
         --------
