@@ -54,6 +54,30 @@ from hybridlab.symbolic.compile import CompiledModel
 __all__ = ["cache_dir", "prepare", "run", "Prepared", "StepInterpolants"]
 
 
+def _refresh_kernel_cache() -> None:
+    """Drop the kernel's numba cache when any module of this package changed.
+
+    numba validates a cached function against its own source file only, so
+    after an edit of, say, ``locate.py`` it would load a stale kernel. The
+    digest of all of this package's sources is kept next to the cache.
+    """
+    here = Path(__file__).parent
+    digest = hashlib.sha256(b"".join(p.read_bytes() for p in sorted(here.glob("*.py"))))
+    cache = here / "__pycache__"
+    stamp = cache / "kernel-sources.sha256"
+    try:
+        if stamp.read_text() == digest.hexdigest():
+            return
+        for f in [*cache.glob("*.nbi"), *cache.glob("*.nbc")]:
+            f.unlink(missing_ok=True)
+        stamp.write_text(digest.hexdigest())
+    except OSError:  # a read-only install: numba then caches elsewhere (its user-wide cache)
+        return
+
+
+_refresh_kernel_cache()
+
+
 def cache_dir() -> Path:
     """Where generated model modules live: ``$HYBRIDLAB_CACHE_DIR`` or ``~/.cache/hybridlab``.
 
@@ -192,7 +216,8 @@ def prepare(compiled: CompiledModel) -> Prepared:
         list(source.guard_group) or [0], monitored,
         [int(tr.scheduled) for tr in compiled.transitions] or [0],
         [0] * max(n_tr, 1), list(source.reset_group) or [0], sw_key, tr_zkey or [0],
-        [md.conditions.size if md.conditions is not None else 0 for md in modes]))
+        [md.conditions.size if md.conditions is not None else 0 for md in modes],
+        source.slide_group, source.switch_free))
     prepared = Prepared(source, module, hit, ints, tuple(compiled.modes), tuple(keys), n_sig)
     _PREPARED[compiled] = prepared
     return prepared

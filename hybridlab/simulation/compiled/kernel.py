@@ -126,7 +126,7 @@ def _fc(ints, m, slm, W):
         if slm[k]:
             sl[c] = k
             c += 1
-    return (ints[0][m], ints[2][m], ints[3][m], ints[4][m], ns, sl, W)
+    return (ints[0][m], ints[2][m], ints[3][m], ints[4][m], ns, sl, W, ints[20][m], ints[21][m])
 
 
 @numba.njit(cache=True)
@@ -154,12 +154,14 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
     invariants, switches, affine flag, outgoing pointer; the outgoing list; per
     transition target, guard group, monitored (0/1, then guard rows), scheduled
     (0/1), schedule enabled (0/1), reset group; per mode and switch the Zeno key;
-    per transition the Zeno key; per mode the condition rows. ``reals``: per
+    per transition the Zeno key; per mode the condition rows, the fused sliding
+    group and whether its switching functions are free of sigma. ``reals``: per
     transition period, phase. Returns the records, the final run state and the
     checkpoint (meaningful for :data:`HANDOFF`).
     """
     (fgs, cgs, sgs, ggs, dgs, inv_off, n_inv, n_sw, affine, out_ptr, out_list, tr_target,
-     tr_guard, tr_monitored, tr_sched, tr_sched_on, tr_reset, sw_key, tr_zkey, n_cond) = ints
+     tr_guard, tr_monitored, tr_sched, tr_sched_on, tr_reset, sw_key, tr_zkey, n_cond, _,
+     _) = ints
     period, phase = reals
     method, samples, max_refine, max_events, max_iter, window = (
         opts_i[0], opts_i[1], opts_i[2], opts_i[3], opts_i[4], opts_i[5])
@@ -178,7 +180,7 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
     dummy = W[0]
     eqv = np.empty(ns)
     n_cmax = max(np.max(n_cond), 1)
-    ws = (np.empty(n), np.empty(n), np.empty(n_cmax), np.empty(n_cmax), np.empty(ns),
+    ws = (np.empty(n), np.empty(n), np.empty(2 * n_cmax), np.empty(n_cmax), np.empty(2 * ns),
           np.empty(ns), np.empty(ns))
     gv = np.empty(max(np.max(tr_monitored[n_tr:]) if n_tr else 1, 1))
     gd = np.empty(gv.size)
@@ -465,7 +467,7 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
             for k in range(n_sw[m]):
                 mk[r], mref[r], mstart[r], mlen[r] = (EXIT if slm[k] else SWITCH), k, 0, 1
                 r += 1
-            md = (fc, cg, mk, mref, mstart, mlen)
+            md = (fc, cg, mk, mref, mstart, mlen, n_cond[m])
             SG = _grow(SG, nsg)
             SG[nsg, 0], SG[nsg, 1], SG[nsg, 2], SG[nsg, 4] = m, j, npt, nst
             PT = _grow(PT, npt)

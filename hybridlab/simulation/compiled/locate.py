@@ -24,7 +24,7 @@ from hybridlab.simulation.compiled.sliding import equivalent, flow_eq
 __all__ = ["monitors_at", "monitor_value", "sample_step", "scan", "GUARD", "INVARIANT", "SWITCH",
            "EXIT"]
 
-OP_FLOW, OP_COND, OP_COND_LIE, OP_SWITCH, OP_SWITCH_LIE = 0, 1, 2, 3, 4
+OP_COND, OP_SWITCH, OP_COND_BOTH, OP_SWITCH_BOTH = 1, 3, 11, 12
 GUARD, INVARIANT, SWITCH, EXIT = 0, 1, 2, 3
 _CHECK_AT = 0.41421356237309515
 _EPS = np.finfo(np.float64).eps
@@ -38,7 +38,7 @@ def _position(sl, k):
     return 0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def monitors_at(model, md, p, sig, ws, t, x, phi, dphi, col):
     """Every monitor's value and slope at ``(t, x)`` into column ``col``.
 
@@ -46,17 +46,15 @@ def monitors_at(model, md, p, sig, ws, t, x, phi, dphi, col):
     :func:`_batch` replaces it by finite differences over the batch, as the
     reference engine does.
     """
-    fc, cg, mk, mref, mstart, mlen = md
+    fc, cg, mk, mref, mstart, mlen, nc = md
     xs, f, cv, cd, sv, sd, eqv = ws
-    sg = fc[1]
-    dummy = fc[6][0]
+    sg, m = fc[1], fc[4]
     flow_eq(model, fc, t, x, p, sig, f, eqv)
+    # values and Lie derivatives in one call each: cv = [g | dg/dt], sv = [s | ds/dt]
     if cg >= 0:
-        model(OP_COND, cg, t, ptr(x), ptr(p), ptr(sig), ptr(dummy), ptr(cv))
-        model(OP_COND_LIE, cg, t, ptr(x), ptr(p), ptr(sig), ptr(f), ptr(cd))
+        model(OP_COND_BOTH, cg, t, ptr(x), ptr(p), ptr(sig), ptr(f), ptr(cv))
     if sg >= 0:
-        model(OP_SWITCH, sg, t, ptr(x), ptr(p), ptr(sig), ptr(dummy), ptr(sv))
-        model(OP_SWITCH_LIE, sg, t, ptr(x), ptr(p), ptr(sig), ptr(f), ptr(sd))
+        model(OP_SWITCH_BOTH, sg, t, ptr(x), ptr(p), ptr(sig), ptr(f), ptr(sv))
     for r in range(mk.size):
         kind = mk[r]
         if kind == GUARD:
@@ -65,14 +63,14 @@ def monitors_at(model, md, p, sig, ws, t, x, phi, dphi, col):
                 if cv[q] < cv[i]:
                     i = q
             phi[r, col] = -cv[i]
-            dphi[r, col] = -cd[i]
+            dphi[r, col] = -cv[nc + i]
         elif kind == INVARIANT:
             phi[r, col] = cv[mstart[r]]
-            dphi[r, col] = cd[mstart[r]]
+            dphi[r, col] = cv[nc + mstart[r]]
         elif kind == SWITCH:
             k = mref[r]
             phi[r, col] = sig[k] * sv[k]
-            dphi[r, col] = sig[k] * sd[k]
+            dphi[r, col] = sig[k] * sv[m + k]
         else:
             phi[r, col] = 1.0 - abs(eqv[_position(fc[5], mref[r])])
             dphi[r, col] = 0.0
@@ -81,7 +79,7 @@ def monitors_at(model, md, p, sig, ws, t, x, phi, dphi, col):
 @numba.njit(cache=True)
 def monitor_value(model, md, p, sig, ws, step, r, t):
     """One monitor's value at time ``t`` of the step (the root finders' inner loop)."""
-    fc, cg, mk, mref, mstart, mlen = md
+    fc, cg, mk, mref, mstart, mlen, nc = md
     xs, f, cv, cd, sv, sd, eqv = ws
     sg = fc[1]
     dummy = fc[6][0]
@@ -249,21 +247,22 @@ def _extremes(h, fa, fb, da, db):
         r2 = -c / b
     else:
         r2 = np.nan
-    s = np.zeros(4)
-    s[1] = 1.0
-    s[2] = r1 if (np.isfinite(r1) and 0 < r1 < 1) else 0.0
-    s[3] = r2 if (np.isfinite(r2) and 0 < r2 < 1) else 0.0
-    i_min = 0
-    i_max = 0
-    v_min = np.inf
-    v_max = -np.inf
-    for i in range(4):
-        v = c0 + s[i] * (c1 + s[i] * (c2 + s[i] * c3))
-        if v < v_min or i == 0:
-            v_min, i_min = v, i
-        if v > v_max or i == 0:
-            v_max, i_max = v, i
-    return v_min, s[i_min], v_max, s[i_max]
+    # candidates s = 0, 1, r1, r2 (scalars: this runs for every monitor and interval)
+    v_min = v_max = c0
+    s_min = s_max = 0.0
+    for i in range(1, 4):
+        if i == 1:
+            si = 1.0
+        elif i == 2:
+            si = r1 if (np.isfinite(r1) and 0 < r1 < 1) else 0.0
+        else:
+            si = r2 if (np.isfinite(r2) and 0 < r2 < 1) else 0.0
+        v = c0 + si * (c1 + si * (c2 + si * c3))
+        if v < v_min:
+            v_min, s_min = v, si
+        if v > v_max:
+            v_max, s_max = v, si
+    return v_min, s_min, v_max, s_max
 
 
 @numba.njit(cache=True)

@@ -1,16 +1,20 @@
 """Filippov sliding in numba: a port of ``simulation/sliding.py`` and the engine's sign logic.
 
-A *flow context* ``fc = (fg, sg, gg, dg, m, sl, W)`` describes the current
-flow: the model groups of the flow, the switching functions, their state
-gradient and the flow's sigma-Jacobian, the mode's number of switches ``m``,
-the sliding switches ``sl`` (an index array, usually empty) and a workspace
-``W`` (see :func:`workspace`). With ``sl`` empty every function here is a
+A *flow context* ``fc = (fg, sg, gg, dg, m, sl, W, pg, free)`` describes the
+current flow: the model groups of the flow, the switching functions, their
+state gradient and the flow's sigma-Jacobian, the mode's number of switches
+``m``, the sliding switches ``sl`` (an index array, usually empty), a
+workspace ``W`` (see :func:`workspace`), the group of the fused sliding op
+(flow, switch Lie derivatives, gradient and sigma-Jacobian in one call) and
+whether the switching functions are free of the signs. With ``sl`` empty every function here is a
 plain flow call; while switches slide:
 
 * :func:`equivalent` solves ``grad s_S . (f0 + F_sigma sigma_S) = 0`` for the
   equivalent signs (the reference's ``equivalent_sigma``);
 * :func:`flow_eq` is the flow with those signs (what monitors, guards and
-  invariants see; the reference's ``sigma_at``);
+  invariants see; the reference's ``sigma_at``), formed as ``f0 + F_sigma
+  sigma_S`` from the same call (exact for flows affine in sigma, the only
+  ones that slide);
 * :func:`rhs` is what the integrator sees: that flow projected onto the
   tangent space of the sliding surfaces (the reference's ``_Run.flow``);
 * :func:`enter_mode`, :func:`resolve` and :func:`update_switches` port the
@@ -33,18 +37,19 @@ from hybridlab.simulation.compiled.signatures import ptr
 __all__ = ["workspace", "equivalent", "flow_eq", "rhs", "enter_mode", "resolve",
            "update_switches", "OK", "NOT_AFFINE", "SINGULAR"]
 
-OP_FLOW, OP_SWITCH, OP_SWITCH_LIE, OP_SWITCH_GRAD, OP_FLOW_DSIGMA = 0, 3, 4, 8, 9
+OP_FLOW, OP_SWITCH, OP_SWITCH_LIE, OP_SWITCH_GRAD, OP_FLOW_DSIGMA, OP_SLIDE_PARTS = \
+    0, 3, 4, 8, 9, 10
 OK, NOT_AFFINE, SINGULAR = 0, 1, 2
 _EQ_SLACK = 1e-12
 
 
 @numba.njit(cache=True)
 def workspace(n, n_sig):
-    """Scratch arrays: dummy, sigma, base, f0, lie, grad, dsigma, A, b, eq, sol, flag."""
+    """Scratch arrays: dummy, sigma, base, f0, lie, grad, dsigma, A, b, eq, sol, flag, parts."""
     ns = max(n_sig, 1)
     return (np.zeros(max(n, 1)), np.empty(ns), np.empty(ns), np.empty(n), np.empty(ns),
             np.empty(ns * n), np.empty(n * ns), np.empty(ns * ns), np.empty(ns), np.empty(ns),
-            np.empty(ns), np.zeros(1))
+            np.empty(ns), np.zeros(1), np.empty(n + ns + 2 * ns * n))
 
 
 @numba.njit(cache=True)
@@ -76,61 +81,80 @@ def _solve(A, b, k, out):
 
 @numba.njit(cache=True)
 def equivalent(model, fc, t, x, p, sig, eq):
-    """Equivalent signs of the sliding switches ``fc[5]`` at ``(t, x)`` into ``eq``."""
-    fg, sg, gg, dg, m, sl, W = fc
-    dummy, _, base, f0, lie, grad, dsig, A, b, _, _, flag = W
+    """Equivalent signs of the sliding switches ``fc[5]`` at ``(t, x)`` into ``eq``.
+
+    Leaves ``[f0 | ds/dt | grad s | F_sigma]`` at ``sigma_S = 0`` in ``W[12]``.
+    """
+    m, sl, W = fc[4], fc[5], fc[6]
+    base, A, b, parts = W[2], W[7], W[8], W[12]
     n = x.size
     k = sl.size
     base[:] = sig
     for a in range(k):
         base[sl[a]] = 0.0
-    model(OP_FLOW, fg, t, ptr(x), ptr(p), ptr(base), ptr(dummy), ptr(f0))
-    model(OP_SWITCH_LIE, sg, t, ptr(x), ptr(p), ptr(base), ptr(f0), ptr(lie))
-    model(OP_SWITCH_GRAD, gg, t, ptr(x), ptr(p), ptr(base), ptr(dummy), ptr(grad))
-    model(OP_FLOW_DSIGMA, dg, t, ptr(x), ptr(p), ptr(base), ptr(dummy), ptr(dsig))
+    model(OP_SLIDE_PARTS, fc[7], t, ptr(x), ptr(p), ptr(base), ptr(W[0]), ptr(parts))
+    og, od = n + m, n + m + m * n
     for a in range(k):
         for c in range(k):
             acc = 0.0
             for i in range(n):
-                acc += grad[sl[a] * n + i] * dsig[i * m + sl[c]]
+                acc += parts[og + sl[a] * n + i] * parts[od + i * m + sl[c]]
             A[a * k + c] = acc
-        b[a] = -lie[sl[a]]
+        b[a] = -parts[n + sl[a]]
     if not _solve(A, b, k, eq):
-        flag[0] = 1.0
+        W[11][0] = 1.0
         return False
     return True
 
 
 @numba.njit(cache=True)
-def flow_eq(model, fc, t, x, p, sig, out, eq):
-    """The flow with the equivalent signs (``eq`` receives them); False if singular."""
-    fg, sg, gg, dg, m, sl, W = fc
-    if sl.size == 0:
-        model(OP_FLOW, fg, t, ptr(x), ptr(p), ptr(sig), ptr(W[0]), ptr(out))
-        return True
+def _flow_sliding(model, fc, t, x, p, sig, out, eq):
+    m, sl, W = fc[4], fc[5], fc[6]
     ok = equivalent(model, fc, t, x, p, sig, eq)
-    sgw = W[1]
+    sgw, parts = W[1], W[12]
     sgw[:] = sig
     for a in range(sl.size):
         sgw[sl[a]] = eq[a]
-    model(OP_FLOW, fg, t, ptr(x), ptr(p), ptr(sgw), ptr(W[0]), ptr(out))
+    n = x.size
+    od = n + m + m * n
+    for i in range(n):  # affine in sigma: f(sigma) = f(sigma_S = 0) + F_sigma sigma_S
+        acc = parts[i]
+        for a in range(sl.size):
+            acc += parts[od + i * m + sl[a]] * eq[a]
+        out[i] = acc
     return ok
 
 
+@numba.njit(cache=True, inline="always")
+def flow_eq(model, fc, t, x, p, sig, out, eq):
+    """The flow with the equivalent signs (``eq`` receives them); False if singular."""
+    if fc[5].size == 0:
+        model(OP_FLOW, fc[0], t, ptr(x), ptr(p), ptr(sig), ptr(fc[6][0]), ptr(out))
+        return True
+    return _flow_sliding(model, fc, t, x, p, sig, out, eq)
+
+
 @numba.njit(cache=True)
-def rhs(model, fc, t, x, p, sig, out):
-    """The integrator's right-hand side: the flow, projected onto the sliding surfaces."""
-    fg, sg, gg, dg, m, sl, W = fc
-    if sl.size == 0:
-        model(OP_FLOW, fg, t, ptr(x), ptr(p), ptr(sig), ptr(W[0]), ptr(out))
-        return
-    dummy, sgw, _, _, lie, grad, _, A, b, eq, sol, flag = W
-    flow_eq(model, fc, t, x, p, sig, out, eq)
+def _rhs_sliding(model, fc, t, x, p, sig, out):
+    m, sl, W = fc[4], fc[5], fc[6]
+    dummy, sgw, lie, grad, A, b, eq, sol, parts = (W[0], W[1], W[4], W[5], W[7], W[8], W[9],
+                                                   W[10], W[12])
+    _flow_sliding(model, fc, t, x, p, sig, out, eq)
     # remove the rounding-level drift off the sliding surfaces (as the reference does)
-    model(OP_SWITCH_GRAD, gg, t, ptr(x), ptr(p), ptr(sgw), ptr(dummy), ptr(grad))
-    model(OP_SWITCH_LIE, sg, t, ptr(x), ptr(p), ptr(sgw), ptr(out), ptr(lie))
     n = x.size
     k = sl.size
+    if fc[8]:
+        # switching functions free of sigma: gradient and ds/dt as at sigma_S = 0
+        og = n + m
+        for a in range(k):
+            acc = parts[n + sl[a]]
+            for i in range(n):
+                grad[sl[a] * n + i] = parts[og + sl[a] * n + i]
+                acc += parts[og + sl[a] * n + i] * (out[i] - parts[i])
+            lie[sl[a]] = acc
+    else:
+        model(OP_SWITCH_GRAD, fc[2], t, ptr(x), ptr(p), ptr(sgw), ptr(dummy), ptr(grad))
+        model(OP_SWITCH_LIE, fc[1], t, ptr(x), ptr(p), ptr(sgw), ptr(out), ptr(lie))
     for a in range(k):
         for c in range(k):
             acc = 0.0
@@ -139,13 +163,22 @@ def rhs(model, fc, t, x, p, sig, out):
             A[a * k + c] = acc
         b[a] = lie[sl[a]]
     if not _solve(A, b, k, sol):
-        flag[0] = 1.0
+        W[11][0] = 1.0
         return
     for i in range(n):
         acc = 0.0
         for a in range(k):
             acc += grad[sl[a] * n + i] * sol[a]
         out[i] -= acc
+
+
+@numba.njit(cache=True, inline="always")
+def rhs(model, fc, t, x, p, sig, out):
+    """The integrator's right-hand side: the flow, projected onto the sliding surfaces."""
+    if fc[5].size == 0:
+        model(OP_FLOW, fc[0], t, ptr(x), ptr(p), ptr(sig), ptr(fc[6][0]), ptr(out))
+    else:
+        _rhs_sliding(model, fc, t, x, p, sig, out)
 
 
 @numba.njit(cache=True)
@@ -196,7 +229,7 @@ def _indices(slm, m):
 @numba.njit(cache=True)
 def resolve(model, fc, affine, t, x, p, sig, at_surface, forced, forced_value, slm):
     """``resolve_switches``: new signs into ``sig``, the sliding set into ``slm``; a status."""
-    fg, sg, gg, dg, m, _, W = fc
+    fg, sg, gg, dg, m, W = fc[0], fc[1], fc[2], fc[3], fc[4], fc[6]
     n = x.size
     f = np.empty(n)
     lie = np.empty(sig.size)
@@ -226,7 +259,7 @@ def resolve(model, fc, affine, t, x, p, sig, at_surface, forced, forced_value, s
             return NOT_AFFINE
         for a in range(idx.size):
             sig[idx[a]] = 0.0
-        if not equivalent(model, (fg, sg, gg, dg, m, idx, W), t, x, p, sig, eq):
+        if not equivalent(model, (fg, sg, gg, dg, m, idx, W, fc[7], fc[8]), t, x, p, sig, eq):
             return SINGULAR
         outside = False
         for a in range(idx.size):
