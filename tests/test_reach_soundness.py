@@ -114,3 +114,44 @@ mode = "on"
             extreme = max(extreme, float(np.abs(x).max()))
             t0, x0, y0 = t1, float(x[-1]), float(y[-1])
     assert extreme > 0.5   # the inputs really drove the state around
+
+
+def test_nonlinear_guards_and_resets_stay_sound():
+    """A two-mode cycle whose return guard (x^2 <= 1/4) and reset (y := sin y + y^2 / 4) are
+    nonlinear: sampled runs lie in the flowpipes at all times and on both sides of the jumps."""
+    model = hybridlab.loads_model('''
+name = "cycle"
+states = { x = 0.0, y = 1.0 }
+[modes.out]
+flow = { x = "1", y = "0.5*y" }
+[modes.back]
+flow = { x = "-1", y = "-y" }
+[[transitions]]
+name = "turn"
+source = "out"
+target = "back"
+guard = "x >= 1"
+reset = { y = "sin(y) + 0.25*y**2" }
+[[transitions]]
+name = "restart"
+source = "back"
+target = "out"
+guard = "x**2 <= 0.25"
+reset = { x = "x - 0.5" }
+[initial]
+mode = "out"
+''')
+    box = {"x": (0.0, 0.2), "y": (0.5, 1.0)}
+    result = reach(model, initial=box, t_end=4.0, step=0.01)
+    assert result.complete and result.reachable_modes == {"out", "back"}
+    assert max(s.jumps for s in result.sets) >= 5
+    for x0, _ in _starts(box, {}, n_random=4, seed=11):
+        sim = hybridlab.simulate(model, t_end=4.0, initial=x0, rtol=1e-10, atol=1e-12)
+        grid = np.linspace(0.0, sim.final.t, 2001)
+        inside = result.covers(grid, sim(grid).T, [sim.mode_at(t) for t in grid], tol=1e-7)
+        assert inside.all(), (x0, grid[~inside][0])
+        assert len(sim.jumps) >= 5
+        for ev in sim.jumps:
+            pre, post = np.array([list(ev.pre.values())]), np.array([list(ev.post.values())])
+            assert result.covers([ev.t], pre, [ev.source], tol=1e-7).all(), ev
+            assert result.covers([ev.t], post, [ev.target], tol=1e-7).all(), ev
