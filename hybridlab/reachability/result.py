@@ -84,6 +84,11 @@ class ReachSet:
     _context: _Context = field(repr=False)
     _box: np.ndarray | None = field(default=None, repr=False)
 
+    def __repr__(self) -> str:
+        b = ", ".join(f"[{lo:.6g}, {hi:.6g}]" for lo, hi in self.bounds())
+        return (f"ReachSet(mode={self.mode!r}, t=({self.t[0]:.6g}, {self.t[1]:.6g}), "
+                f"jumps={self.jumps}, bounds=[{b}])")
+
     def bounds(self) -> np.ndarray:
         """Bounds of the states, shape ``(n, 2)``: the interval hull of :attr:`set`
         within the mode's linear invariant rows (exact, by a one-multiplier LP dual)."""
@@ -169,6 +174,14 @@ class ReachResult:
     state_names: tuple[str, ...] = ()
     t_span: tuple[float, float] = (0.0, 0.0)
     options: ReachOptions = field(default_factory=ReachOptions, repr=False)
+
+    def __repr__(self) -> str:
+        bounds = ", ".join(f"{k}: [{lo:.6g}, {hi:.6g}]" for k, (lo, hi) in self.bounds.items())
+        return (f"ReachResult({len(self.sets)} sets, complete={self.complete}, "
+                f"fixpoint={self.fixpoint}, modes={sorted(self.reachable_modes)}, "
+                f"bounds={{{bounds}}}, t_span={self.t_span}, time_s={self.time_s:.3g}"
+                + (f", incomplete_reasons={list(self.incomplete_reasons)}"
+                   if self.incomplete_reasons else "") + ")")
 
     def bound(self, expr: str | sp.Expr, mode: str | None = None) -> tuple[float, float]:
         """Enclosure of ``expr`` over every set (of ``mode``, if given)."""
