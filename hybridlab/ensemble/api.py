@@ -91,7 +91,7 @@ def _execute(model_arg: Model | CompiledModel | str | Path, runs: list[dict[str,
     _check_horizon(model, runs)
     text = model_text(model)
     key = model_key(text)
-    compiled = compiled_for(text, key, compiled)
+    compiled = compiled_for(text, key, compiled, model)
     observables = parse_observables(observe)
     counts = parse_counts(events, [t.name for t in model.transitions])
     texts = [o.expression for o in observables if o.function is None]

@@ -59,11 +59,14 @@ def model_key(text: str) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def compiled_for(text: str, key: str | None = None,
-                 compiled: CompiledModel | None = None) -> CompiledModel:
+def compiled_for(text: str, key: str | None = None, compiled: CompiledModel | None = None,
+                 model: Model | None = None) -> CompiledModel:
     """The compiled model of JSON ``text`` from this process's cache, compiling on a miss.
 
-    ``compiled``, when given, is stored for ``key`` instead of compiling.
+    On a miss, ``compiled`` (when given) is stored for ``key``; else ``model``
+    (when given) is compiled, which reuses the compiled form it may already
+    carry (and whatever a backend prepared for it, which forked workers then
+    inherit); else the text is parsed and compiled.
     """
     key = key or model_key(text)
     with _cache_lock:
@@ -71,7 +74,9 @@ def compiled_for(text: str, key: str | None = None,
         if hit is not None:
             _compiled_cache.move_to_end(key)
             return hit
-    fresh = compiled if compiled is not None else compile_model(Model.model_validate_json(text))
+    if compiled is None:
+        compiled = compile_model(model if model is not None else Model.model_validate_json(text))
+    fresh = compiled
     with _cache_lock:
         _compiled_cache[key] = fresh
         while len(_compiled_cache) > _CACHE_SIZE:
