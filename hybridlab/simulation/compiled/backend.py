@@ -54,19 +54,24 @@ from hybridlab.symbolic.compile import CompiledModel
 __all__ = ["cache_dir", "prepare", "run", "Prepared", "StepInterpolants"]
 
 
+#: the modules whose numba functions make up the kernel
+_KERNEL_SOURCES = ("signatures", "sliding", "integrate", "locate", "kernel")
+
+
 def _refresh_kernel_cache() -> None:
-    """Drop the kernel's numba cache when any module of this package changed.
+    """Drop the kernel's numba cache when any of its modules changed.
 
     numba validates a cached function against its own source file only, so
     after an edit of, say, ``locate.py`` it would load a stale kernel. The
-    digest of all of this package's sources is kept next to the cache.
+    digest of the kernel's sources is kept next to the cache.
     """
     here = Path(__file__).parent
-    digest = hashlib.sha256(b"".join(p.read_bytes() for p in sorted(here.glob("*.py"))))
+    digest = hashlib.sha256(b"".join((here / f"{name}.py").read_bytes()
+                                     for name in _KERNEL_SOURCES))
     cache = here / "__pycache__"
     stamp = cache / "kernel-sources.sha256"
     try:
-        if stamp.read_text() == digest.hexdigest():
+        if stamp.is_file() and stamp.read_text() == digest.hexdigest():
             return
         for f in [*cache.glob("*.nbi"), *cache.glob("*.nbc")]:
             f.unlink(missing_ok=True)
@@ -332,9 +337,9 @@ def _records(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, EV: 
     modes = prep.mode_names
     cmodes = list(compiled.modes.values())
     events = []
-    for row in EV:
-        pre = dict(zip(names, row[7:7 + n].tolist(), strict=True))
-        post = dict(zip(names, row[7 + n:].tolist(), strict=True))
+    for row in EV.tolist():
+        pre = dict(zip(names, row[7:7 + n], strict=True))
+        post = dict(zip(names, row[7 + n:], strict=True))
         src, tgt = modes[int(row[3])], modes[int(row[4])]
         kind = _KINDS[int(row[5])]
         if kind == "jump":

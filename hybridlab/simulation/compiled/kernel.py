@@ -45,6 +45,7 @@ from hybridlab.simulation.compiled.signatures import ptr
 from hybridlab.simulation.compiled.sliding import (
     OK,
     enter_mode,
+    flag_index,
     flow_eq,
     rhs,
     update_switches,
@@ -176,8 +177,8 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
     sig = np.ones(ns)
     slm = np.zeros(ns, dtype=np.bool_)
     W = workspace(n, n_sig)
-    flag = W[11]
-    dummy = W[0]
+    flag = W[flag_index(n, n_sig):]
+    dummy = W
     eqv = np.empty(ns)
     n_cmax = max(np.max(n_cond), 1)
     ws = (np.empty(n), np.empty(n), np.empty(2 * n_cmax), np.empty(n_cmax), np.empty(2 * ns),

@@ -19,12 +19,12 @@ import numpy as np
 
 from hybridlab.simulation.compiled.integrate import dense_eval
 from hybridlab.simulation.compiled.signatures import ptr
-from hybridlab.simulation.compiled.sliding import equivalent, flow_eq
+from hybridlab.simulation.compiled.sliding import equivalent, flow_sliding
 
 __all__ = ["monitors_at", "monitor_value", "sample_step", "scan", "GUARD", "INVARIANT", "SWITCH",
            "EXIT"]
 
-OP_COND, OP_SWITCH, OP_COND_BOTH, OP_SWITCH_BOTH = 1, 3, 11, 12
+OP_FLOW, OP_COND, OP_SWITCH, OP_COND_BOTH, OP_SWITCH_BOTH = 0, 1, 3, 11, 12
 GUARD, INVARIANT, SWITCH, EXIT = 0, 1, 2, 3
 _CHECK_AT = 0.41421356237309515
 _EPS = np.finfo(np.float64).eps
@@ -49,7 +49,10 @@ def monitors_at(model, md, p, sig, ws, t, x, phi, dphi, col):
     fc, cg, mk, mref, mstart, mlen, nc = md
     xs, f, cv, cd, sv, sd, eqv = ws
     sg, m = fc[1], fc[4]
-    flow_eq(model, fc, t, x, p, sig, f, eqv)
+    if fc[5].size == 0:
+        model(OP_FLOW, fc[0], t, ptr(x), ptr(p), ptr(sig), ptr(fc[6]), ptr(f))
+    else:  # the sliding flow inlined: this runs at every sample point
+        flow_sliding(model, fc[7], m, fc[5], fc[6], t, x, p, sig, f, eqv)
     # values and Lie derivatives in one call each: cv = [g | dg/dt], sv = [s | ds/dt]
     if cg >= 0:
         model(OP_COND_BOTH, cg, t, ptr(x), ptr(p), ptr(sig), ptr(f), ptr(cv))
@@ -76,13 +79,13 @@ def monitors_at(model, md, p, sig, ws, t, x, phi, dphi, col):
             dphi[r, col] = 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def monitor_value(model, md, p, sig, ws, step, r, t):
     """One monitor's value at time ``t`` of the step (the root finders' inner loop)."""
     fc, cg, mk, mref, mstart, mlen, nc = md
     xs, f, cv, cd, sv, sd, eqv = ws
     sg = fc[1]
-    dummy = fc[6][0]
+    dummy = fc[6]
     method, coef, t_old, h, y_old = step
     dense_eval(method, coef, t_old, h, y_old, t, xs)
     kind = mk[r]

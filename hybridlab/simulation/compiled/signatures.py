@@ -5,7 +5,7 @@ from __future__ import annotations
 from numba import types
 from numba.extending import intrinsic
 
-__all__ = ["MODEL_SIGNATURE", "MODEL_TYPE", "ptr"]
+__all__ = ["MODEL_SIGNATURE", "MODEL_TYPE", "ptr", "ptr_at"]
 
 _PTR = types.CPointer(types.float64)
 
@@ -23,5 +23,17 @@ def ptr(typingctx, arr):  # noqa: ARG001 - numba intrinsic protocol
 
     def codegen(context, builder, signature, args):
         return context.make_array(arr)(context, builder, args[0]).data
+
+    return sig, codegen
+
+
+@intrinsic
+def ptr_at(typingctx, arr, offset):  # noqa: ARG001 - numba intrinsic protocol
+    """The address of ``arr[offset]`` of a contiguous array."""
+    sig = types.CPointer(arr.dtype)(arr, offset)
+
+    def codegen(context, builder, signature, args):
+        data = context.make_array(arr)(context, builder, args[0]).data
+        return builder.gep(data, [args[1]])
 
     return sig, codegen

@@ -21,8 +21,9 @@ plain flow call; while switches slide:
   sign bookkeeping and the joint active-set iteration of ``resolve_switches``.
 
 Failures the reference reports by raising (a singular equivalent-dynamics
-matrix, sliding on a flow that is not affine in sigma) set ``W[-1][0]`` or
-return a non-zero status; the kernel then hands the run to the reference.
+matrix, sliding on a flow that is not affine in sigma) set the workspace flag
+(:func:`flag_index`) or return a non-zero status; the kernel then hands the
+run to the reference.
 """
 
 from __future__ import annotations
@@ -32,10 +33,10 @@ import math
 import numba
 import numpy as np
 
-from hybridlab.simulation.compiled.signatures import ptr
+from hybridlab.simulation.compiled.signatures import ptr, ptr_at
 
-__all__ = ["workspace", "equivalent", "flow_eq", "rhs", "enter_mode", "resolve",
-           "update_switches", "OK", "NOT_AFFINE", "SINGULAR"]
+__all__ = ["workspace", "flag_index", "equivalent", "flow_sliding", "flow_eq", "rhs",
+           "enter_mode", "resolve", "update_switches", "OK", "NOT_AFFINE", "SINGULAR"]
 
 OP_FLOW, OP_SWITCH, OP_SWITCH_LIE, OP_SWITCH_GRAD, OP_FLOW_DSIGMA, OP_SLIDE_PARTS = \
     0, 3, 4, 8, 9, 10
@@ -43,39 +44,89 @@ OK, NOT_AFFINE, SINGULAR = 0, 1, 2
 _EQ_SLACK = 1e-12
 
 
+@numba.njit(cache=True, inline="always")
+def _layout(n, ns):
+    """Offsets in the flat workspace: sigma, base, lie, grad, A, b, sol, flag, parts, end.
+
+    The first ``n`` entries are a scratch input for ops that read no flow. One
+    flat array (instead of a tuple of arrays) keeps reference counting out of
+    the right-hand side, which runs a dozen times per step.
+    """
+    o_sig = n
+    o_base = o_sig + ns
+    o_lie = o_base + ns
+    o_grad = o_lie + ns
+    o_a = o_grad + ns * n
+    o_b = o_a + ns * ns
+    o_sol = o_b + ns
+    o_flag = o_sol + ns
+    o_parts = o_flag + 1
+    return o_sig, o_base, o_lie, o_grad, o_a, o_b, o_sol, o_flag, o_parts, \
+        o_parts + n + ns + 2 * ns * n
+
+
 @numba.njit(cache=True)
 def workspace(n, n_sig):
-    """Scratch arrays: dummy, sigma, base, f0, lie, grad, dsigma, A, b, eq, sol, flag, parts."""
-    ns = max(n_sig, 1)
-    return (np.zeros(max(n, 1)), np.empty(ns), np.empty(ns), np.empty(n), np.empty(ns),
-            np.empty(ns * n), np.empty(n * ns), np.empty(ns * ns), np.empty(ns), np.empty(ns),
-            np.empty(ns), np.zeros(1), np.empty(n + ns + 2 * ns * n))
+    """The flat scratch array of a flow context (see :func:`_layout`)."""
+    return np.zeros(_layout(n, max(n_sig, 1))[9])
 
 
 @numba.njit(cache=True)
-def _solve(A, b, k, out):
-    """Solve the ``k x k`` row-major system ``A out = b`` (partial pivoting; A, b destroyed)."""
+def flag_index(n, n_sig):
+    """Where a failure (a singular sliding system) is flagged in the workspace."""
+    return _layout(n, max(n_sig, 1))[7]
+
+
+@numba.njit(cache=True, inline="always")
+def _solve(W, oa, ob, k, out, oo):
+    """Solve ``A y = b`` (``k x k`` row-major at ``W[oa:]``, ``b`` at ``W[ob:]``) into
+    ``out[oo:oo + k]`` by partial pivoting (A and b are destroyed)."""
     for c in range(k):
         piv = c
         for r in range(c + 1, k):
-            if abs(A[r * k + c]) > abs(A[piv * k + c]):
+            if abs(W[oa + r * k + c]) > abs(W[oa + piv * k + c]):
                 piv = r
-        if A[piv * k + c] == 0.0 or not np.isfinite(A[piv * k + c]):
+        if W[oa + piv * k + c] == 0.0 or not np.isfinite(W[oa + piv * k + c]):
             return False
         if piv != c:
             for q in range(k):
-                A[c * k + q], A[piv * k + q] = A[piv * k + q], A[c * k + q]
-            b[c], b[piv] = b[piv], b[c]
+                W[oa + c * k + q], W[oa + piv * k + q] = W[oa + piv * k + q], W[oa + c * k + q]
+            W[ob + c], W[ob + piv] = W[ob + piv], W[ob + c]
         for r in range(c + 1, k):
-            factor = A[r * k + c] / A[c * k + c]
+            factor = W[oa + r * k + c] / W[oa + c * k + c]
             for q in range(c, k):
-                A[r * k + q] -= factor * A[c * k + q]
-            b[r] -= factor * b[c]
+                W[oa + r * k + q] -= factor * W[oa + c * k + q]
+            W[ob + r] -= factor * W[ob + c]
     for c in range(k - 1, -1, -1):
-        acc = b[c]
+        acc = W[ob + c]
         for q in range(c + 1, k):
-            acc -= A[c * k + q] * out[q]
-        out[c] = acc / A[c * k + c]
+            acc -= W[oa + c * k + q] * out[oo + q]
+        out[oo + c] = acc / W[oa + c * k + c]
+    return True
+
+
+@numba.njit(cache=True, inline="always")
+def _equivalent(model, fg_p, m, sl, W, t, x, p, sig, eq):
+    n = x.size
+    o_sig, o_base, _, _, o_a, o_b, _, o_flag, o_parts, _ = _layout(n, sig.size)
+    k = sl.size
+    for i in range(sig.size):
+        W[o_base + i] = sig[i]
+    for a in range(k):
+        W[o_base + sl[a]] = 0.0
+    model(OP_SLIDE_PARTS, fg_p, t, ptr(x), ptr(p), ptr_at(W, o_base), ptr(W),
+          ptr_at(W, o_parts))
+    og, od = o_parts + n + m, o_parts + n + m + m * n
+    for a in range(k):
+        for c in range(k):
+            acc = 0.0
+            for i in range(n):
+                acc += W[og + sl[a] * n + i] * W[od + i * m + sl[c]]
+            W[o_a + a * k + c] = acc
+        W[o_b + a] = -W[o_parts + n + sl[a]]
+    if not _solve(W, o_a, o_b, k, eq, 0):
+        W[o_flag] = 1.0
+        return False
     return True
 
 
@@ -83,92 +134,80 @@ def _solve(A, b, k, out):
 def equivalent(model, fc, t, x, p, sig, eq):
     """Equivalent signs of the sliding switches ``fc[5]`` at ``(t, x)`` into ``eq``.
 
-    Leaves ``[f0 | ds/dt | grad s | F_sigma]`` at ``sigma_S = 0`` in ``W[12]``.
+    Leaves ``[f0 | ds/dt | grad s | F_sigma]`` at ``sigma_S = 0`` in the workspace.
     """
-    m, sl, W = fc[4], fc[5], fc[6]
-    base, A, b, parts = W[2], W[7], W[8], W[12]
+    return _equivalent(model, fc[7], fc[4], fc[5], fc[6], t, x, p, sig, eq)
+
+
+@numba.njit(cache=True, inline="always")
+def flow_sliding(model, pg, m, sl, W, t, x, p, sig, out, eq):
+    """The flow with the equivalent signs of the sliding switches ``sl`` (see :func:`flow_eq`)."""
+    ok = _equivalent(model, pg, m, sl, W, t, x, p, sig, eq)
     n = x.size
-    k = sl.size
-    base[:] = sig
-    for a in range(k):
-        base[sl[a]] = 0.0
-    model(OP_SLIDE_PARTS, fc[7], t, ptr(x), ptr(p), ptr(base), ptr(W[0]), ptr(parts))
-    og, od = n + m, n + m + m * n
-    for a in range(k):
-        for c in range(k):
-            acc = 0.0
-            for i in range(n):
-                acc += parts[og + sl[a] * n + i] * parts[od + i * m + sl[c]]
-            A[a * k + c] = acc
-        b[a] = -parts[n + sl[a]]
-    if not _solve(A, b, k, eq):
-        W[11][0] = 1.0
-        return False
-    return True
+    o_sig, o_parts = n, _layout(n, sig.size)[8]
+    for i in range(sig.size):
+        W[o_sig + i] = sig[i]
+    for a in range(sl.size):
+        W[o_sig + sl[a]] = eq[a]
+    od = o_parts + n + m + m * n
+    for i in range(n):  # affine in sigma: f(sigma) = f(sigma_S = 0) + F_sigma sigma_S
+        acc = W[o_parts + i]
+        for a in range(sl.size):
+            acc += W[od + i * m + sl[a]] * eq[a]
+        out[i] = acc
+    return ok
 
 
 @numba.njit(cache=True)
-def _flow_sliding(model, fc, t, x, p, sig, out, eq):
-    m, sl, W = fc[4], fc[5], fc[6]
-    ok = equivalent(model, fc, t, x, p, sig, eq)
-    sgw, parts = W[1], W[12]
-    sgw[:] = sig
-    for a in range(sl.size):
-        sgw[sl[a]] = eq[a]
-    n = x.size
-    od = n + m + m * n
-    for i in range(n):  # affine in sigma: f(sigma) = f(sigma_S = 0) + F_sigma sigma_S
-        acc = parts[i]
-        for a in range(sl.size):
-            acc += parts[od + i * m + sl[a]] * eq[a]
-        out[i] = acc
-    return ok
+def _flow_eq_sliding(model, fc, t, x, p, sig, out, eq):
+    return flow_sliding(model, fc[7], fc[4], fc[5], fc[6], t, x, p, sig, out, eq)
 
 
 @numba.njit(cache=True, inline="always")
 def flow_eq(model, fc, t, x, p, sig, out, eq):
     """The flow with the equivalent signs (``eq`` receives them); False if singular."""
     if fc[5].size == 0:
-        model(OP_FLOW, fc[0], t, ptr(x), ptr(p), ptr(sig), ptr(fc[6][0]), ptr(out))
+        model(OP_FLOW, fc[0], t, ptr(x), ptr(p), ptr(sig), ptr(fc[6]), ptr(out))
         return True
-    return _flow_sliding(model, fc, t, x, p, sig, out, eq)
+    return _flow_eq_sliding(model, fc, t, x, p, sig, out, eq)
 
 
 @numba.njit(cache=True)
 def _rhs_sliding(model, fc, t, x, p, sig, out):
     m, sl, W = fc[4], fc[5], fc[6]
-    dummy, sgw, lie, grad, A, b, eq, sol, parts = (W[0], W[1], W[4], W[5], W[7], W[8], W[9],
-                                                   W[10], W[12])
-    _flow_sliding(model, fc, t, x, p, sig, out, eq)
-    # remove the rounding-level drift off the sliding surfaces (as the reference does)
     n = x.size
+    o_sig, _, o_lie, o_grad, o_a, o_b, o_sol, o_flag, o_parts, _ = _layout(n, sig.size)
+    flow_sliding(model, fc[7], m, sl, W, t, x, p, sig, out, W[o_sol:o_sol + sig.size])
+    # remove the rounding-level drift off the sliding surfaces (as the reference does)
     k = sl.size
     if fc[8]:
         # switching functions free of sigma: gradient and ds/dt as at sigma_S = 0
-        og = n + m
+        og = o_parts + n + m
         for a in range(k):
-            acc = parts[n + sl[a]]
+            acc = W[o_parts + n + sl[a]]
             for i in range(n):
-                grad[sl[a] * n + i] = parts[og + sl[a] * n + i]
-                acc += parts[og + sl[a] * n + i] * (out[i] - parts[i])
-            lie[sl[a]] = acc
+                W[o_grad + sl[a] * n + i] = W[og + sl[a] * n + i]
+                acc += W[og + sl[a] * n + i] * (out[i] - W[o_parts + i])
+            W[o_lie + sl[a]] = acc
     else:
-        model(OP_SWITCH_GRAD, fc[2], t, ptr(x), ptr(p), ptr(sgw), ptr(dummy), ptr(grad))
-        model(OP_SWITCH_LIE, fc[1], t, ptr(x), ptr(p), ptr(sgw), ptr(out), ptr(lie))
+        model(OP_SWITCH_GRAD, fc[2], t, ptr(x), ptr(p), ptr_at(W, o_sig), ptr(W),
+              ptr_at(W, o_grad))
+        model(OP_SWITCH_LIE, fc[1], t, ptr(x), ptr(p), ptr_at(W, o_sig), ptr(out),
+              ptr_at(W, o_lie))
     for a in range(k):
         for c in range(k):
             acc = 0.0
             for i in range(n):
-                acc += grad[sl[a] * n + i] * grad[sl[c] * n + i]
-            A[a * k + c] = acc
-        b[a] = lie[sl[a]]
-    if not _solve(A, b, k, sol):
-        W[11][0] = 1.0
+                acc += W[o_grad + sl[a] * n + i] * W[o_grad + sl[c] * n + i]
+            W[o_a + a * k + c] = acc
+        W[o_b + a] = W[o_lie + sl[a]]
+    if not _solve(W, o_a, o_b, k, W, o_sol):
+        W[o_flag] = 1.0
         return
     for i in range(n):
         acc = 0.0
         for a in range(k):
-            acc += grad[sl[a] * n + i] * sol[a]
+            acc += W[o_grad + sl[a] * n + i] * W[o_sol + a]
         out[i] -= acc
 
 
@@ -176,7 +215,7 @@ def _rhs_sliding(model, fc, t, x, p, sig, out):
 def rhs(model, fc, t, x, p, sig, out):
     """The integrator's right-hand side: the flow, projected onto the sliding surfaces."""
     if fc[5].size == 0:
-        model(OP_FLOW, fc[0], t, ptr(x), ptr(p), ptr(sig), ptr(fc[6][0]), ptr(out))
+        model(OP_FLOW, fc[0], t, ptr(x), ptr(p), ptr(sig), ptr(fc[6]), ptr(out))
     else:
         _rhs_sliding(model, fc, t, x, p, sig, out)
 
@@ -184,8 +223,7 @@ def rhs(model, fc, t, x, p, sig, out):
 @numba.njit(cache=True)
 def _sdot(model, fc, t, x, p, sigma, k, f, lie):
     fg, sg = fc[0], fc[1]
-    dummy = fc[6][0]
-    model(OP_FLOW, fg, t, ptr(x), ptr(p), ptr(sigma), ptr(dummy), ptr(f))
+    model(OP_FLOW, fg, t, ptr(x), ptr(p), ptr(sigma), ptr(fc[6]), ptr(f))
     model(OP_SWITCH_LIE, sg, t, ptr(x), ptr(p), ptr(sigma), ptr(f), ptr(lie))
     return lie[k]
 
@@ -294,7 +332,7 @@ def enter_mode(model, fc, affine, t, x, p, sig, slm, event_atol):
     at_surface = np.zeros(sig.size, dtype=np.bool_)
     forced = np.zeros(sig.size, dtype=np.bool_)
     sig[:] = 1.0
-    model(OP_SWITCH, fc[1], t, ptr(x), ptr(p), ptr(sig), ptr(fc[6][0]), ptr(s))
+    model(OP_SWITCH, fc[1], t, ptr(x), ptr(p), ptr(sig), ptr(fc[6]), ptr(s))
     for k in range(m):
         at_surface[k] = abs(s[k]) <= event_atol
         sig[k] = 1.0 if s[k] >= 0 else -1.0
