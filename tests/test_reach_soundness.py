@@ -28,6 +28,10 @@ CASES = {
     "thermostat": ("thermostat", None, {"T": (19.0, 21.0)}, {}, 40.0, {"step": 0.05}),
     "thermostat_uncertain_loss": ("thermostat", None, {"T": (19.5, 20.5)},
                                   {"a": (0.09, 0.11)}, 20.0, {"step": 0.05}),
+    # T > 22 starts outside heat's invariant: the guard fires at t = 0 before the invariant
+    # is checked, so those states jump from outside it (a regression: they were cut away)
+    "thermostat_entry_outside_invariant": ("thermostat", None, {"T": (15.0, 25.0)}, {}, 15.0,
+                                           {"step": 0.1}),
     "relay_sliding": ("relay_sliding", None, {"x": (0.5, 1.5)}, {}, 3.0, {"step": 0.01}),
     "relay_escape": ("relay_sliding", "escape", {"x": (0.5, 1.5)}, {}, 3.0, {"step": 0.01}),
     "friction_oscillator": ("friction_oscillator", None, {"x": (0.9, 1.1), "v": (-0.1, 0.1)},

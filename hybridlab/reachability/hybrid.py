@@ -151,6 +151,7 @@ class _Analysis:
                      if system.modes else ())},
             t_index=system.time_index)
         self.n = system.n_states
+        self.no_rows = Rows([], system.zsyms)
 
     # ----- waiting list -------------------------------------------------------------------
     def push(self, parent: int | None, mode: str, P: Zonotope, t_lo: float, t_hi: float,
@@ -161,9 +162,8 @@ class _Analysis:
             self._reason(f"max_jumps={self.options.max_jumps} reached: a branch entering "
                          f"mode {mode!r} at t in [{t_lo:.6g}, {t_hi:.6g}] was not followed")
             return
-        inv = self.system.modes[mode].invariants.range(P)
-        if np.any(inv[:, 1] < 0):
-            return  # entered outside the target's invariant: the simulator stops there
+        # a set entered outside the target's invariant is kept: a guard may still fire at the
+        # entry instant (the simulator fires guards before it checks the invariant)
         item = Item(self.next_id, parent, mode, P, t_lo, t_hi, jumps, sched_done)
         self.next_id += 1
         self.items[item.id] = item
@@ -218,6 +218,7 @@ class _Analysis:
                          f"[{item.t_lo:.6g}, {item.t_hi:.6g}] and has scheduled transitions "
                          f"({names}); that branch was not followed")
             return
+        self._entry_outside_invariant(item, guarded)
         # guard rows that the flow leaves from the initial set (see the module docstring)
         leaving: dict[int, set[int]] = {}
         scale = 1.0 + float(np.max(np.abs(item.P.bounds())))
@@ -299,6 +300,44 @@ class _Analysis:
             if clusters[tr.index]:
                 self._jump(item, tr, clusters[tr.index])
 
+    def _entry_outside_invariant(self, item: Item, guarded) -> None:
+        """States entering outside the mode's invariant cannot flow: at the entry instant they
+        jump, if a guard holds (or the simulator stops). Record them and take those jumps.
+
+        States inside the invariant are left to the flow (with its leaving rule), so a ball
+        bouncing off ``h = 0`` is not bounced again here."""
+        rows = self.system.modes[item.mode].invariants
+        if rows.size == 0:
+            return
+        rng = rows.range(item.P)
+        # below -1e-9 relative: the rounding slack of a set entered on the boundary (a ball
+        # reset at h = 0) must not count; states nearer the boundary than that are caught by
+        # the first step's guard cluster
+        tol = 1e-9 * (1.0 + float(np.max(np.abs(item.P.bounds()))))
+        outside = np.flatnonzero(rng[:, 0] < -tol)
+        if outside.size == 0:
+            return
+        self.record(item, item.P, item.t_lo, item.t_hi)
+        for i in outside:
+            # the part of P with row_i <= 0, i.e. a z + b <= 0 (all of P for a nonlinear row)
+            piece = (item.P.intersect_halfspace(rows.a[i], -rows.b[i]) if rows.linear[i]
+                     else item.P)
+            if piece is None:
+                continue
+            for tr in guarded:
+                guard = self.system.guards[tr.index]
+                if guard.size and np.any(guard.range(piece)[:, 1] < 0):
+                    continue
+                cut = self._cut(piece, guard, self.no_rows)
+                if cut is None:
+                    continue
+                try:
+                    post = self._reset(tr.index, cut)
+                except StepError as exc:
+                    self._reason(str(exc))
+                    continue
+                self.push(item.id, tr.target, post, item.t_lo, item.t_hi, item.jumps + 1)
+
     def _lie(self, mode: str, index: int) -> IntervalFunction:
         key = (mode, index)
         if key not in self.lie:
@@ -336,7 +375,8 @@ class _Analysis:
             rng = rows.range(P)
             if rows.size and np.any(rng[:, 1] < 0):
                 continue
-            piece = self._cut(P, rows, self.system.modes[item.mode].invariants)
+            # no invariant cut: at an entry instant P may lie partly outside it
+            piece = self._cut(P, rows, self.no_rows)
             if piece is None:
                 continue
             post = self._reset(tr.index, piece)
@@ -457,8 +497,6 @@ def run_analysis(system: System, options: ReachOptions, mode: str, P0: Zonotope,
     started = _time.perf_counter()
     analysis = _Analysis(system, options, t_start, t_end, p)
     analysis.push(None, mode, P0, t_start, t_start, 0)
-    if not analysis.queue and not analysis.items:
-        analysis._reason(f"the initial set lies outside the invariant of mode {mode!r}")
     try:
         analysis.run()
     except _Budget:
