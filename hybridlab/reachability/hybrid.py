@@ -9,6 +9,9 @@ window):
   ``H`` and the next start set are cut down to its linear rows
   (:meth:`Zonotope.intersect_halfspace`); if some row is negative over all of
   ``H``, the flowpipe ends.
+* **Entry outside the invariant**: guards fire at an entry instant before the invariant is
+  checked, so the part of an entry set outside the invariant is recorded at that instant and
+  jumps through every guard that may hold on it.
 * **Guards** (urgent): a transition *may* fire when every guard row can be
   non-negative over ``H``. Consecutive steps that may fire it form a cluster.
   Each step set is cut down to the guard and the source invariant (LPs over the
