@@ -9,9 +9,11 @@ compiled once per machine for every model.
 
 :func:`run` calls the kernel and turns its records into the same
 :class:`~hybridlab.simulation.result.SimulationResult` as the reference
-engine. When the kernel hands off (sliding, an invariant violation, ...),
-the run is repeated by the reference engine, and ``result.stats["backend"]``
-says which backend produced the result.
+engine. When the kernel hands off (an invariant violation, a zero-dwell
+cycle, a failed step, ...), the reference engine continues the run from the
+kernel's checkpoint (:func:`_hand_off`; ``result.stats["handoff"]`` says from
+where); methods and models the kernel cannot run at all are run by the
+reference engine from the start (``result.stats["fallback"]``).
 """
 
 from __future__ import annotations
