@@ -132,6 +132,54 @@ def test_rare_cases_hand_the_run_to_the_reference_midway():
     np.testing.assert_allclose(fast(np.array([0.5, 1.5])), ref(np.array([0.5, 1.5])), atol=1e-12)
 
 
+_PING_PONG = """
+name = "ping_pong"
+states = { x = 0.0, y = 1.0 }
+[modes.a]
+flow = { x = "1", y = "-sign(y)" }
+[modes.b]
+flow = { x = "1", y = "-sign(y)" }
+[[transitions]]
+name = "ab"
+source = "a"
+target = "b"
+guard = "x >= 2"
+[[transitions]]
+name = "ba"
+source = "b"
+target = "a"
+guard = "x >= 2"
+[initial]
+mode = "a"
+"""
+
+_OUTSIDE = """
+name = "outside"
+states = { x = 2.0 }
+[modes.a]
+flow = { x = "1" }
+invariant = "x <= 1"
+[initial]
+mode = "a"
+"""
+
+
+@pytest.mark.parametrize(("text", "entry"), [(_PING_PONG, "(handle)"), (_OUTSIDE, "(flow)")])
+def test_hand_off_reports_like_the_reference(text, entry):
+    # a zero-dwell cycle at t = 2 after a slide at t = 1 (handed over at the event), and a mode
+    # entered outside its invariant (handed over at the start of the flow segment)
+    model = hybridlab.model.loads_model(text)
+    fast, ref = _pair(model, t_end=5.0, max_event_iterations=20)
+    assert fast.stats["backend"] == "compiled" and entry in fast.stats["handoff"]
+    assert fast.status == ref.status and fast.status is not hybridlab.Status.COMPLETED
+    assert fast.message == ref.message
+    assert [(e.transition, e.kind, e.j) for e in fast.events] == \
+        [(e.transition, e.kind, e.j) for e in ref.events]
+    np.testing.assert_allclose([e.t for e in fast.events], [e.t for e in ref.events], atol=1e-12)
+    assert (fast.final.mode, fast.final.j) == (ref.final.mode, ref.final.j)
+    assert fast.final.t == pytest.approx(ref.final.t, abs=1e-12)
+
+
 def test_non_affine_sliding_raises_like_the_reference():
     model = hybridlab.model.loads_model(_NOT_AFFINE)
     for backend in ("reference", "compiled"):
