@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import math
-import random
 from pathlib import Path
 
 import pytest
@@ -14,7 +12,6 @@ import hybridlab
 from hybridlab import loads_model
 from hybridlab.cli import main
 from hybridlab.graph import Severity, Verdict, check_mode_graph, decide
-from hybridlab.graph.intervals import Interval, interval_eval
 
 ROOT = Path(__file__).resolve().parents[1]
 x, y = sp.symbols("x y", real=True)
@@ -62,26 +59,6 @@ def test_nonlinear_touching_point_is_found_by_local_search() -> None:
     # |x + 0.29 sin(y) - 0.25| == 0.02 only on a curve: proved by a point, not by a box
     edge = sp.Abs(x + 0.29 * sp.sin(y) - 0.25) - 0.02
     assert decide([edge, -edge]).verdict is Verdict.POSSIBLE
-
-
-@pytest.mark.parametrize("expr", [x**2 - x * y, sp.sin(3 * x) * y + sp.cos(y), sp.exp(x / 2) -
-                                  sp.sqrt(y**2 + 1), sp.Abs(x - y) - sp.Max(x, y) + sp.Min(x, 1),
-                                  sp.atan(x) * sp.tanh(y) / (x**2 + 1), x**3 - y**3 + 1 / (y + 9)])
-def test_interval_enclosure_contains_sampled_values(expr: sp.Expr) -> None:
-    f = sp.lambdify((x, y), expr, "math")
-    rng = random.Random(7)
-    for _ in range(60):
-        xs, ys = sorted(rng.uniform(-4, 4) for _ in range(2)), sorted(rng.uniform(-4, 4)
-                                                                        for _ in range(2))
-        enclosure = interval_eval(expr, {x: Interval(*xs), y: Interval(*ys)})
-        for _ in range(20):
-            value = f(rng.uniform(*xs), rng.uniform(*ys))
-            assert enclosure.lo <= value <= enclosure.hi
-
-
-def test_interval_sin_hits_its_extrema_exactly() -> None:
-    enclosure = interval_eval(sp.sin(x), {x: Interval(1.0, 2.0)})
-    assert enclosure.hi == 1.0 and enclosure.lo == pytest.approx(math.sin(1.0), abs=1e-14)
 
 
 # ----------------------------------------------------------------- transitions

@@ -1,4 +1,4 @@
-"""Interval arithmetic and set operations of hybridlab.reachability: sound by sampling.
+"""Set operations of hybridlab.reachability: sound by sampling (intervals: test_symbolic_intervals).
 
 Every operation must contain the image of every sampled point (Hypothesis draws
 the boxes, zonotopes and matrices); the LP-free intersection bounds are compared
@@ -11,30 +11,18 @@ import math
 
 import numpy as np
 import pytest
-import sympy as sp
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import linprog
 
 from hybridlab.reachability import (
     Box,
-    Interval,
-    IntervalError,
-    IntervalFunction,
     Polytope,
     SetError,
     Zonotope,
 )
-from hybridlab.reachability.interval import interval_eval
 
 finite = st.floats(-50, 50, allow_nan=False, allow_infinity=False)
-
-
-@st.composite
-def intervals(draw, lo=-5.0, hi=5.0):
-    a = draw(st.floats(lo, hi))
-    b = draw(st.floats(lo, hi))
-    return Interval(min(a, b), max(a, b))
 
 
 @st.composite
@@ -55,69 +43,6 @@ def _samples(Z: Zonotope, k: int = 200, seed: int = 0) -> np.ndarray:
         corners = np.array(np.meshgrid(*[[-1.0, 1.0]] * m)).reshape(m, -1).T
         B = np.vstack([B, corners])
     return Z.center + B @ Z.generators.T
-
-
-# ----- interval arithmetic ----------------------------------------------------------------------
-X, Y = sp.symbols("x y", real=True)
-EXPRESSIONS = [
-    X + Y, X - Y, X * Y, X / (Y + 10), X**2, X**3, (X**2 + 1)**-2, sp.sqrt(X + 6), sp.exp(X),
-    sp.log(X + 6), sp.sin(X), sp.cos(X * Y), sp.tan(X / 4), sp.atan(X), sp.asin(X / 6),
-    sp.acos(Y / 6), sp.sinh(X), sp.cosh(X), sp.tanh(X), sp.Abs(X), sp.sign(X), sp.Min(X, Y),
-    sp.Max(X, 2 * Y), sp.atan2(Y, X), sp.Rational(1, 3) * X**2 - sp.pi * Y,
-    (X**2 + Y**2 + 1)**sp.Rational(3, 2), X**Y / (1 + sp.exp(Y)) + 0 * X,
-    sp.Heaviside(X),
-]
-
-
-@pytest.mark.parametrize("expr", EXPRESSIONS, ids=[str(e) for e in EXPRESSIONS])
-@settings(max_examples=15, deadline=None)
-@given(bx=intervals(), by=intervals())
-def test_interval_enclosure_contains_every_sampled_value(expr, bx, by):
-    if expr.has(X**Y):  # a real power needs a positive base
-        base = abs(bx.lo) + 0.1
-        bx = Interval(base, base + (bx.hi - bx.lo))
-    f = IntervalFunction([expr], [X, Y])
-    r = f.intervals([bx, by])[0]
-    g = sp.lambdify([X, Y], expr, modules=[{"Heaviside": lambda v, h0=0.5: np.heaviside(v, h0)},
-                                              "numpy"])
-    xs = np.r_[bx.lo, bx.hi, np.linspace(bx.lo, bx.hi, 41)]
-    ys = np.r_[by.lo, by.hi, np.linspace(by.lo, by.hi, 41)]
-    xx, yy = np.meshgrid(xs, ys)
-    with np.errstate(all="ignore"):
-        values = np.asarray(g(xx, yy), dtype=float) * np.ones_like(xx)
-    values = values[np.isfinite(values)]
-    assert np.all(values >= r.lo) and np.all(values <= r.hi), (r, values.min(), values.max())
-
-
-def test_interval_rounding_is_outward():
-    r = Interval(0.1, 0.1) + Interval(0.2, 0.2)
-    assert r.lo < 0.1 + 0.2 < r.hi or r.lo <= 0.3 <= r.hi
-    third = interval_eval(sp.Rational(1, 3) * X, {X: (1.0, 1.0)})
-    assert third.lo < 1 / 3 < third.hi or third.lo <= 1 / 3 <= third.hi
-    assert third.hi - third.lo < 1e-15
-
-
-def test_interval_trigonometry_hits_its_extremes():
-    assert Interval(0.0, math.pi).__class__ is Interval
-    r = interval_eval(sp.sin(X), {X: (0.0, math.pi)})
-    assert r.hi == 1.0 and -1e-15 < r.lo <= 0.0
-    r = interval_eval(sp.cos(X), {X: (3.0, 3.3)})
-    assert r.lo == -1.0
-    assert interval_eval(sp.tan(X), {X: (1.0, 2.0)}).hi == math.inf
-
-
-def test_interval_errors_are_named():
-    with pytest.raises(IntervalError, match="log of a non-positive"):
-        interval_eval(sp.log(X), {X: (-2.0, -1.0)})
-    with pytest.raises(IntervalError, match="no interval given for symbol y"):
-        interval_eval(X + Y, {X: (0.0, 1.0)})
-    with pytest.raises(IntervalError, match="lo <= hi"):
-        Interval(1.0, 0.0)
-
-
-def test_division_by_an_interval_containing_zero_is_the_whole_line():
-    r = Interval(1.0, 2.0) / Interval(-1.0, 1.0)
-    assert r.lo == -math.inf and r.hi == math.inf
 
 
 # ----- zonotopes ---------------------------------------------------------------------------------

@@ -30,7 +30,7 @@ import numpy as np
 import sympy as sp
 from scipy.optimize import least_squares, linprog
 
-from hybridlab.graph.intervals import EmptyInterval, Interval, compile_interval
+from hybridlab.symbolic.intervals import EmptyInterval, Interval, compile_interval
 
 __all__ = ["Verdict", "Decision", "decide"]
 
@@ -368,7 +368,7 @@ def decide(rows: Iterable[sp.Expr], *, tol: float = 1e-9, max_boxes: int = 256) 
     search = _Search(affine, nonlinear, tol)
     affine_vars = set(search.affine_vars)
     box = {v: (_bounds(affine, search.affine_vars, v, tol) if v in affine_vars
-               else Interval.everything()) for v in search.nl_vars}
+               else Interval.entire()) for v in search.nl_vars}
     verdict = search.run(box, {v: point.get(v, _representative(box[v])) for v in search.nl_vars},
                          max_boxes)
     reason = ""

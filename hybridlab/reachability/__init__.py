@@ -5,7 +5,7 @@
 reachable from the initial set at every time (not only at time steps), bounds
 per state and the reachable modes. See ``docs/verification.md``.
 
-Modules: :mod:`~.interval` (interval arithmetic), :mod:`~.sets` (boxes,
+Modules: :mod:`hybridlab.symbolic.intervals` (interval arithmetic), :mod:`~.sets` (boxes,
 zonotopes, polytopes), :mod:`~.system` (the model's equations on the extended
 state), :mod:`~.linear` (one affine step), :mod:`~.nonlinear` (conservative
 linearisation), :mod:`~.hybrid` (guards, resets, waiting list),
@@ -13,11 +13,11 @@ linearisation), :mod:`~.hybrid` (guards, resets, waiting list),
 """
 
 from hybridlab.reachability.api import ReachError, reach
-from hybridlab.reachability.interval import Interval, IntervalError, IntervalFunction
 from hybridlab.reachability.linear import StepError
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.result import ReachResult, ReachSet
 from hybridlab.reachability.sets import Box, Polytope, SetError, Zonotope, as_zonotope
+from hybridlab.symbolic.intervals import Interval, IntervalError, IntervalFunction
 
 __all__ = [
     "Box",

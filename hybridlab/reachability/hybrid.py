@@ -46,13 +46,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from hybridlab.reachability.interval import IntervalFunction
 from hybridlab.reachability.linear import StepError
 from hybridlab.reachability.nonlinear import FlowStepper
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.result import ReachResult, ReachSet, _Context
 from hybridlab.reachability.sets import Box, SetError, Zonotope
 from hybridlab.reachability.system import Rows, System
+from hybridlab.symbolic.intervals import IntervalFunction
 
 __all__ = ["Item", "run_analysis"]
 

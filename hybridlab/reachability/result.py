@@ -12,9 +12,9 @@ import numpy as np
 import sympy as sp
 
 from hybridlab.model.expressions import parse_expression
-from hybridlab.reachability.interval import Interval, IntervalFunction
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.sets import Zonotope
+from hybridlab.symbolic.intervals import Interval, IntervalFunction
 
 __all__ = ["ReachSet", "ReachResult", "merge_results"]
 

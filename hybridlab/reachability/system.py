@@ -22,10 +22,10 @@ import numpy as np
 import sympy as sp
 
 from hybridlab.model.checks import TIME
-from hybridlab.reachability.interval import IntervalFunction
 from hybridlab.symbolic.compile import CompiledModel
 from hybridlab.symbolic.discontinuities import extract_switches
 from hybridlab.symbolic.functions import _no_impulses
+from hybridlab.symbolic.intervals import IntervalFunction
 from hybridlab.symbolic.lagrange import lagrange_equations, mode_flow
 
 __all__ = ["Rows", "ModeSystem", "ResetMap", "System", "build_system"]

@@ -11,6 +11,15 @@ plus ``1e-300`` to cover that.
 grammar allows: ``+ - * / **``, ``sin cos tan asin acos atan atan2 sinh cosh
 tanh exp log sqrt abs sign min max``, ``clip`` through min/max) once into a
 tree of closures and evaluates them over a box.
+
+Two users with two needs: reachability (:class:`IntervalFunction`,
+:func:`interval_eval`) wants every construct enclosed or a clear
+:class:`IntervalError`; the static checks of the mode graph
+(:func:`compile_interval`) want a bound whatever happens, so there an unknown
+symbol, function or non-finite constant is the whole real line. Both raise
+:class:`EmptyInterval` (an :class:`IntervalError`) when an expression is
+undefined at every point of the box (``sqrt`` or ``log`` of a negative interval,
+``asin`` outside ``[-1, 1]``).
 """
 
 from __future__ import annotations
@@ -24,13 +33,18 @@ import sympy as sp
 
 from hybridlab.errors import HybridlabError
 
-__all__ = ["Interval", "IntervalError", "IntervalFunction", "interval_eval"]
+__all__ = ["EmptyInterval", "Interval", "IntervalError", "IntervalFunction", "compile_interval",
+           "interval_eval"]
 
 _INF = math.inf
 
 
 class IntervalError(HybridlabError, ValueError):
     """An expression cannot be enclosed by interval arithmetic (unsupported function)."""
+
+
+class EmptyInterval(IntervalError):
+    """The expression is undefined at every point of the box (``sqrt`` of a negative interval)."""
 
 
 _MAX = float(np.finfo(float).max)
@@ -112,6 +126,11 @@ class Interval:
     def mag(self) -> float:
         """``max |x|`` over the interval."""
         return max(abs(self.lo), abs(self.hi))
+
+    @property
+    def width(self) -> float:
+        """``hi - lo`` (infinite for an unbounded interval)."""
+        return self.hi - self.lo
 
     def contains(self, x: float) -> bool:
         """Whether ``x`` lies in the interval."""
@@ -206,15 +225,16 @@ def _exp(x: Interval) -> Interval:
 
 
 def _log(x: Interval) -> Interval:
-    if x.hi <= 0.0:
-        raise IntervalError(f"log of a non-positive interval [{x.lo}, {x.hi}]")
+    if x.hi <= 0.0:  # empty below zero; at hi == 0 only the point 0 (log = -inf) is left
+        kind = EmptyInterval if x.hi < 0.0 else IntervalError
+        raise kind(f"log of a non-positive interval [{x.lo}, {x.hi}]")
     lo = -_INF if x.lo <= 0.0 else x.lo
     return _monotone(lambda v: np.log(v) if v > 0 else -_INF, Interval(lo, x.hi))
 
 
 def _sqrt(x: Interval) -> Interval:
     if x.hi < 0.0:
-        raise IntervalError(f"sqrt of a negative interval [{x.lo}, {x.hi}]")
+        raise EmptyInterval(f"sqrt of a negative interval [{x.lo}, {x.hi}]")
     r = _monotone(np.sqrt, Interval(max(x.lo, 0.0), x.hi))
     return Interval(max(r.lo, 0.0), r.hi)
 
@@ -252,7 +272,7 @@ def _tan(x: Interval) -> Interval:
 def _clamped(f: Callable[[float], float], lo: float, hi: float, increasing: bool = True):
     def apply(x: Interval) -> Interval:
         if x.hi < lo or x.lo > hi:
-            raise IntervalError(f"argument [{x.lo}, {x.hi}] outside the domain [{lo}, {hi}]")
+            raise EmptyInterval(f"argument [{x.lo}, {x.hi}] outside the domain [{lo}, {hi}]")
         return _monotone(f, Interval(max(x.lo, lo), min(x.hi, hi)), increasing)
     return apply
 
@@ -328,7 +348,20 @@ def _constant(value: sp.Expr) -> Interval:
     return Interval(_down(v), _up(v))
 
 
-def _compile(expr: sp.Expr, index: Mapping[sp.Symbol, int]) -> Node:
+def _general_power(base: Interval, exponent: Interval) -> Interval:
+    """``base ** exponent`` for a variable exponent: a negative base is not empty there
+    (an integer exponent is defined), so the log's :class:`EmptyInterval` is only an error."""
+    try:
+        return base ** exponent
+    except EmptyInterval as exc:
+        raise IntervalError(str(exc)) from None
+
+
+def _compile(expr: sp.Expr, index: Mapping[sp.Symbol, int], lenient: bool = False) -> Node:
+    """A closure enclosing ``expr``; ``lenient``: what it cannot enclose is the whole line."""
+    if lenient and not (expr.is_Symbol or expr.is_Number or expr.is_NumberSymbol
+                        or _supported(expr)):
+        return lambda env: _ENTIRE
     if expr.is_Symbol:
         if expr not in index:
             raise IntervalError(f"no interval given for symbol {expr}")
@@ -336,10 +369,12 @@ def _compile(expr: sp.Expr, index: Mapping[sp.Symbol, int]) -> Node:
         return lambda env: env[i]
     if expr.is_Number or expr.is_NumberSymbol:
         if not expr.is_finite:
+            if lenient:
+                return lambda env: _ENTIRE
             raise IntervalError(f"non-finite constant {expr}")
         c = _constant(expr)
         return lambda env: c
-    args = [_compile(a, index) for a in expr.args]
+    args = [_compile(a, index, lenient) for a in expr.args]
     if isinstance(expr, sp.Add):
         def add(env: Sequence[Interval]) -> Interval:
             total = args[0](env)
@@ -364,7 +399,9 @@ def _compile(expr: sp.Expr, index: Mapping[sp.Symbol, int]) -> Node:
             return lambda env: _sqrt(base(env))
         if e == sp.Rational(-1, 2):
             return lambda env: _sqrt(base(env)).reciprocal()
-        return lambda env: base(env) ** exponent(env)
+        if e.is_Number:  # a non-integer constant power: real only for a base >= 0
+            return lambda env: base(env) ** exponent(env)
+        return lambda env: _general_power(base(env), exponent(env))
     if isinstance(expr, sp.Min):
         return lambda env: _min(*(a(env) for a in args))
     if isinstance(expr, sp.Max):
@@ -376,6 +413,14 @@ def _compile(expr: sp.Expr, index: Mapping[sp.Symbol, int]) -> Node:
             arg = args[0]
             return lambda env, f=f: f(arg(env))
     raise IntervalError(f"interval arithmetic does not support {type(expr).__name__} in {expr}")
+
+
+_ENTIRE = Interval.entire()
+_SUPPORTED = (sp.Add, sp.Mul, sp.Pow, sp.Min, sp.Max, sp.atan2, *_UNARY)
+
+
+def _supported(expr: sp.Expr) -> bool:
+    return isinstance(expr, _SUPPORTED)
 
 
 class IntervalFunction:
@@ -414,8 +459,22 @@ class IntervalFunction:
                 np.array([r.hi for r in out], dtype=float))
 
 
-def interval_eval(expr: sp.Expr, box: Mapping[sp.Symbol, tuple[float, float]]) -> Interval:
+def interval_eval(expr: sp.Expr,
+                  box: Mapping[sp.Symbol, Interval | tuple[float, float]]) -> Interval:
     """Enclose one sympy expression over a box given per symbol.
+
+    Parameters
+    ----------
+    expr : sympy.Expr
+        A real expression over the symbols of ``box``.
+    box : mapping of sympy.Symbol to Interval or (lo, hi)
+        The range of each symbol.
+
+    Raises
+    ------
+    IntervalError
+        For a symbol without an interval or a construct it cannot enclose;
+        :class:`EmptyInterval` when ``expr`` is undefined everywhere on the box.
 
     Examples
     --------
@@ -429,5 +488,46 @@ def interval_eval(expr: sp.Expr, box: Mapping[sp.Symbol, tuple[float, float]]) -
     if missing:
         raise IntervalError(f"no interval given for symbol {missing[0]}")
     f = IntervalFunction([expr], symbols)
-    env = [Interval(float(box[s][0]), float(box[s][1])) for s in symbols]
-    return f.intervals(env)[0]
+    return f.intervals([_as_interval(box[s]) for s in symbols])[0]
+
+
+def _as_interval(bounds: Interval | tuple[float, float]) -> Interval:
+    if isinstance(bounds, Interval):
+        return bounds
+    return Interval(float(bounds[0]), float(bounds[1]))
+
+
+def compile_interval(expr: sp.Expr) -> Callable[[Mapping[sp.Symbol, Interval]], Interval]:
+    """Compile ``expr`` once into a function of a box that always returns a bound.
+
+    Unlike :class:`IntervalFunction` it never fails for want of knowledge: a
+    symbol missing from the box, a function it does not model, a non-finite
+    constant or a power it cannot settle (``x**y`` with ``x <= 0``) give the whole
+    real line, which is always sound.
+
+    Raises
+    ------
+    EmptyInterval
+        (When called.) The expression is undefined at every point of the box.
+
+    Examples
+    --------
+    >>> x, y = sp.symbols("x y", real=True)
+    >>> f = compile_interval(sp.Abs(x) - 1 + sp.Function("g")(y))
+    >>> f({x: Interval(-3.0, 2.0)}) == Interval.entire()
+    True
+    >>> compile_interval(sp.Abs(x) - 1)({x: Interval(-3.0, 2.0)}).hi >= 2.0
+    True
+    """
+    expr = sp.sympify(expr)
+    symbols = sorted(expr.free_symbols, key=str)
+    node = _compile(expr, {s: i for i, s in enumerate(symbols)}, lenient=True)
+
+    def evaluate(box: Mapping[sp.Symbol, Interval]) -> Interval:
+        try:
+            return node([box.get(s, _ENTIRE) for s in symbols])
+        except EmptyInterval:
+            raise
+        except IntervalError:
+            return _ENTIRE
+    return evaluate
