@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from hybridlab._cliargs import finite_number, require_finite, split_assignment
 from hybridlab.ensemble.cli import add_sweep_parser
 from hybridlab.errors import HybridlabError, ModelError, SimulationError
 from hybridlab.graph import check_mode_graph, to_dot
@@ -41,26 +41,11 @@ class _Parser(argparse.ArgumentParser):
         raise _UsageError(message)
 
 
-def _finite(value: float | None, option: str) -> float | None:
-    """``value`` unless it is inf or nan (argparse's ``float`` accepts both)."""
-    if value is not None and not math.isfinite(value):
-        raise _UsageError(f"{option}: {value!r} is not a finite number")
-    return value
-
-
 def _assignments(items: Sequence[str] | None, option: str) -> dict[str, float]:
     out: dict[str, float] = {}
     for item in items or ():
-        name, sep, value = item.partition("=")
-        if not sep or not name.strip():
-            raise _UsageError(f"{option} expects NAME=VALUE (got {item!r})")
-        try:
-            number = float(value)
-        except ValueError:
-            raise _UsageError(f"{option} {name.strip()}: {value!r} is not a number") from None
-        if not math.isfinite(number):
-            raise _UsageError(f"{option} {name.strip()}: {value!r} is not a finite number")
-        out[name.strip()] = number
+        name, value = split_assignment(item, option, error=_UsageError)
+        out[name] = finite_number(value, f"{option} {name}", error=_UsageError)
     return out
 
 
@@ -100,7 +85,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
 def _cmd_simulate(args: argparse.Namespace) -> int:
     # check every argument before the (possibly long) simulation runs
     for option in ("t_end", "rtol", "atol", "max_step"):
-        _finite(getattr(args, option), "--" + option.replace("_", "-"))
+        require_finite(getattr(args, option), "--" + option.replace("_", "-"), error=_UsageError)
     params = _assignments(args.set, "--set")
     initial = _assignments(args.init, "--init")
     out = Path(args.out) if args.out else None

@@ -15,12 +15,12 @@ early (its status, or ``ERROR``, is in the table); user errors are raised as
 from __future__ import annotations
 
 import argparse
-import math
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from hybridlab._cliargs import finite_number, split_assignment
 from hybridlab.ensemble.api import sweep
 from hybridlab.ensemble.errors import SweepError
 from hybridlab.ensemble.observables import Count, Observable
@@ -31,20 +31,12 @@ __all__ = ["add_sweep_parser", "parse_count", "parse_grid", "parse_observe"]
 
 
 def _split(item: str, option: str) -> tuple[str, str]:
-    name, sep, value = item.partition("=")
-    if not sep or not name.strip() or not value.strip():
-        raise SweepError(f"{option} expects NAME=VALUE (got {item!r})")
-    return name.strip(), value.strip()
+    name, value = split_assignment(item, option, require_value=True, error=SweepError)
+    return name, value.strip()
 
 
 def _float(text: str, where: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise SweepError(f"{where}: {text!r} is not a number") from None
-    if not math.isfinite(value):
-        raise SweepError(f"{where}: {text!r} is not a finite number")
-    return value
+    return finite_number(text, where, error=SweepError)
 
 
 def parse_grid(items: list[str] | None) -> dict[str, list[float]]:

@@ -18,6 +18,7 @@ import argparse
 import contextlib
 from typing import Any
 
+from hybridlab._cliargs import finite_number, split_assignment
 from hybridlab.identify._report import save_figure, write_json
 from hybridlab.identify.data import read_events_csv, read_frequency_csv, read_friction_csv
 from hybridlab.identify.events import fit_events
@@ -52,18 +53,13 @@ def _run_mass(args: argparse.Namespace) -> int:
 def _pairs(items: list[str], option: str) -> dict[str, str]:
     out = {}
     for item in items or []:
-        key, sep, value = item.partition("=")
-        if not sep or not key.strip():
-            raise ValueError(f"{option} expects NAME=VALUE (got {item!r})")
-        out[key.strip()] = value.strip()
+        key, value = split_assignment(item, option)
+        out[key] = value.strip()
     return out
 
 
-def _number(text: str, option: str) -> float:
-    try:
-        return float(text)
-    except ValueError:
-        raise ValueError(f"{option} expects a number (got {text!r})") from None
+def _numbers(items: list[str], option: str) -> dict[str, float]:
+    return {k: finite_number(v, f"{option} {k}") for k, v in _pairs(items, option).items()}
 
 
 def _run_events(args: argparse.Namespace) -> int:
@@ -77,8 +73,8 @@ def _run_events(args: argparse.Namespace) -> int:
         raise ValueError("--sensor must be given for two sensors, e.g. "
                          "--sensor 1=on1,off1 --sensor 2=on2,off2")
     fit = [n.strip() for n in args.fit.split(",") if n.strip()]
-    guess = {k: _number(v, "--initial") for k, v in _pairs(args.initial, "--initial").items()}
-    params = {k: _number(v, "--param") for k, v in _pairs(args.param, "--param").items()}
+    guess = _numbers(args.initial, "--initial")
+    params = _numbers(args.param, "--param")
     distance: float | str | None = args.sensor_distance
     if distance is not None:
         with contextlib.suppress(ValueError):  # otherwise a parameter name
@@ -93,8 +89,8 @@ def _run_events(args: argparse.Namespace) -> int:
 
 def _run_targets(args: argparse.Namespace) -> int:
     fit = [n.strip() for n in args.fit.split(",") if n.strip()]
-    guess = {k: _number(v, "--initial") for k, v in _pairs(args.initial, "--initial").items()}
-    params = {k: _number(v, "--param") for k, v in _pairs(args.param, "--param").items()}
+    guess = _numbers(args.initial, "--initial")
+    params = _numbers(args.param, "--param")
     options = {"rtol": args.rtol} if args.rtol is not None else {}
     result = fit_targets(args.model, read_targets(args.targets), fit=fit, params=params,
                          initial_guess=guess, max_evaluations=args.max_evaluations,

@@ -16,10 +16,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 from collections.abc import Sequence
 from pathlib import Path
 
+from hybridlab._cliargs import finite_number, require_finite, split_assignment
 from hybridlab.model.loader import load_model
 from hybridlab.reachability.falsify import FalsifyOptions
 from hybridlab.reachability.spec import Avoid
@@ -29,16 +29,6 @@ __all__ = ["add_reach_parser", "parse_ranges", "EXIT_CODES"]
 
 #: Exit code of each verdict.
 EXIT_CODES = {VerdictStatus.SAFE: 0, VerdictStatus.UNSAFE: 1, VerdictStatus.UNKNOWN: 3}
-
-
-def _number(text: str, option: str, name: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise ValueError(f"{option} {name}: {text!r} is not a number") from None
-    if not math.isfinite(value):
-        raise ValueError(f"{option} {name}: {text!r} is not a finite number")
-    return value
 
 
 def parse_ranges(items: Sequence[str] | None, option: str,
@@ -56,21 +46,19 @@ def parse_ranges(items: Sequence[str] | None, option: str,
     """
     out: dict[str, float | tuple[float, float]] = {}
     for item in items or ():
-        name, sep, value = item.partition("=")
-        name = name.strip()
-        if not sep or not name or not value.strip():
-            form = "NAME=LO:HI or NAME=VALUE" if allow_point else "NAME=LO:HI"
-            raise ValueError(f"{option} expects {form} (got {item!r})")
+        form = "NAME=LO:HI or NAME=VALUE" if allow_point else "NAME=LO:HI"
+        name, value = split_assignment(item, option, form=form, require_value=True)
         if name in out:
             raise ValueError(f"{option} {name}: given twice")
         lo_text, colon, hi_text = value.partition(":")
         if colon:
-            lo, hi = _number(lo_text, option, name), _number(hi_text, option, name)
+            where = f"{option} {name}"
+            lo, hi = finite_number(lo_text, where), finite_number(hi_text, where)
             if lo > hi:
                 raise ValueError(f"{option} {name}: the interval {value.strip()} needs LO <= HI")
             out[name] = (lo, hi)
         elif allow_point:
-            out[name] = _number(value, option, name)
+            out[name] = finite_number(value, f"{option} {name}")
         else:
             raise ValueError(f"{option} {name}: expects an interval LO:HI (got {value!r})")
     return out
@@ -103,8 +91,7 @@ def _print(verdict: Verdict) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    if not math.isfinite(args.t_end):
-        raise ValueError(f"--t-end: {args.t_end!r} is not a finite number")
+    require_finite(args.t_end, "--t-end")
     if not args.safe and not args.avoid:
         raise ValueError("give at least one --safe SPEC or --avoid REGION")
     initial = parse_ranges(args.init, "--init")

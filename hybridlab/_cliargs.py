@@ -1,0 +1,85 @@
+"""Parsing of command-line values shared by the subcommands (``NAME=VALUE``, numbers).
+
+Every error is one line naming the option (and the name, where there is one) and
+the offending text: ``--set g: 'abc' is not a number``. The caller chooses the
+exception class (``error``), a ``ValueError`` subclass, so that each subcommand
+keeps raising its own kind (``SweepError`` for ``sweep``, ...).
+"""
+
+from __future__ import annotations
+
+import math
+
+__all__ = ["finite_number", "require_finite", "split_assignment"]
+
+
+def split_assignment(item: str, option: str, *, form: str = "NAME=VALUE",
+                     require_value: bool = False,
+                     error: type[Exception] = ValueError) -> tuple[str, str]:
+    """Split ``NAME=VALUE`` into the stripped name and the value as written.
+
+    Parameters
+    ----------
+    item : str
+        One argument of ``option``.
+    option : str
+        The option's spelling, for the error message (``"--set"``).
+    form : str
+        The expected form, for the error message.
+    require_value : bool
+        Whether an empty value is an error too.
+    error : type
+        The exception class to raise.
+
+    Examples
+    --------
+    >>> split_assignment(" g = 9.81", "--set")
+    ('g', ' 9.81')
+    >>> split_assignment("g", "--set")
+    Traceback (most recent call last):
+    ...
+    ValueError: --set expects NAME=VALUE (got 'g')
+    """
+    name, sep, value = item.partition("=")
+    if not sep or not name.strip() or (require_value and not value.strip()):
+        raise error(f"{option} expects {form} (got {item!r})")
+    return name.strip(), value
+
+
+def finite_number(text: str, where: str, *, error: type[Exception] = ValueError) -> float:
+    """``text`` as a finite float; ``where`` (``"--set g"``) heads the error message.
+
+    Examples
+    --------
+    >>> finite_number(" 2.5", "--set g")
+    2.5
+    >>> finite_number("inf", "--set g")
+    Traceback (most recent call last):
+    ...
+    ValueError: --set g: 'inf' is not a finite number
+    """
+    try:
+        value = float(text)
+    except ValueError:
+        raise error(f"{where}: {text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise error(f"{where}: {text!r} is not a finite number")
+    return value
+
+
+def require_finite(value: float | None, option: str, *,
+                   error: type[Exception] = ValueError) -> float | None:
+    """``value`` unless it is inf or nan (argparse's ``float`` accepts both); None passes.
+
+    Examples
+    --------
+    >>> require_finite(None, "--t-end") is None
+    True
+    >>> require_finite(float("nan"), "--t-end")
+    Traceback (most recent call last):
+    ...
+    ValueError: --t-end: nan is not a finite number
+    """
+    if value is not None and not math.isfinite(value):
+        raise error(f"{option}: {value!r} is not a finite number")
+    return value
