@@ -46,11 +46,11 @@ from hybridlab.errors import HybridlabError
 from hybridlab.identify._report import axes, format_table
 from hybridlab.identify.data import SensorEvents
 from hybridlab.identify.errors import DataError
-from hybridlab.model.loader import load_model
 from hybridlab.model.schema import Model
 from hybridlab.simulation.api import simulate
+from hybridlab.simulation.resolve import as_compiled
 from hybridlab.simulation.result import SimulationResult
-from hybridlab.symbolic.compile import CompiledModel, compile_model
+from hybridlab.symbolic.compile import CompiledModel
 
 __all__ = ["SensorMap", "Passages", "EventFit", "edges_from_result", "passages", "fit_events"]
 
@@ -230,17 +230,6 @@ class _Budget(Exception):
     """Raised inside the objective when the simulation budget is spent."""
 
 
-def _compiled(model: Model | CompiledModel | str | Path) -> CompiledModel:
-    if isinstance(model, CompiledModel):
-        return model
-    if isinstance(model, str | Path):
-        model = load_model(model)
-    if not isinstance(model, Model):
-        raise TypeError(f"model must be a Model, CompiledModel or path (got "
-                        f"{type(model).__name__})")
-    return compile_model(model)
-
-
 def _check_sensors(sensors: SensorMap, compiled: CompiledModel) -> dict[str, tuple[str, str]]:
     if not isinstance(sensors, Mapping) or len(sensors) < 2:
         raise ValueError("sensors must map at least two sensor ids to (rising, falling) "
@@ -334,7 +323,7 @@ def fit_events(
     ValueError
         Unknown parameter, transition or method, or a bad setting.
     """
-    compiled = _compiled(model)
+    compiled = as_compiled(model)
     if not isinstance(events, SensorEvents):
         raise TypeError(f"events must be SensorEvents (got {type(events).__name__})")
     if len(events) == 0:

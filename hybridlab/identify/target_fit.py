@@ -29,10 +29,11 @@ from scipy.optimize import least_squares, minimize
 
 from hybridlab.errors import HybridlabError
 from hybridlab.identify._report import axes, format_table
-from hybridlab.identify.events import _Budget, _compiled, _simplex, _Space
+from hybridlab.identify.events import _Budget, _simplex, _Space
 from hybridlab.identify.targets import Target, _Observers, target_statistic
 from hybridlab.model.schema import Model
 from hybridlab.simulation.api import simulate
+from hybridlab.simulation.resolve import as_compiled
 from hybridlab.symbolic.compile import CompiledModel
 
 __all__ = ["TargetFit", "fit_targets"]
@@ -253,7 +254,7 @@ def fit_targets(
 
     The standard error is ``tolerance / (d apex / d e) = 0.01 / (2 e h0)``.
     """
-    compiled = _compiled(model)
+    compiled = as_compiled(model)
     fit = _check_fit(fit, compiled)
     targets = _check_targets(targets, compiled)
     if method not in _METHODS:

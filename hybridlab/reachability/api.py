@@ -10,31 +10,20 @@ import numpy as np
 import sympy as sp
 
 from hybridlab.errors import HybridlabError
-from hybridlab.model.loader import load_model
 from hybridlab.model.schema import Model
 from hybridlab.reachability.hybrid import run_analysis
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.result import ReachResult, merge_results
 from hybridlab.reachability.sets import Box, Polytope, Zonotope, as_zonotope
 from hybridlab.reachability.system import build_system
-from hybridlab.symbolic.compile import CompiledModel, compile_model
+from hybridlab.simulation.resolve import as_compiled, scenario_of
+from hybridlab.symbolic.compile import CompiledModel
 
 __all__ = ["ReachError", "reach"]
 
 
 class ReachError(HybridlabError, ValueError):
     """A reachability problem is ill-posed (bad initial set, bounds or names)."""
-
-
-def _compiled(model: Model | CompiledModel | str | Path) -> CompiledModel:
-    if isinstance(model, CompiledModel):
-        return model
-    if isinstance(model, str | Path):
-        model = load_model(model)
-    if not isinstance(model, Model):
-        raise TypeError(f"model must be a Model, CompiledModel or path (got "
-                        f"{type(model).__name__})")
-    return compile_model(model)
 
 
 def _interval(value: Any, what: str) -> tuple[float, float]:
@@ -120,16 +109,9 @@ def reach(
     >>> bool(hi >= 10.0 and hi < 10.01 and lo <= 0.0)
     True
     """
-    compiled = _compiled(model)
+    compiled = as_compiled(model)
     spec = compiled.model
-    if scenario is None and "default" in spec.scenarios:
-        scenario = "default"
-    sc = None
-    if scenario is not None:
-        if scenario not in spec.scenarios:
-            raise ReachError(f"unknown scenario {scenario!r}; the model has: "
-                             f"{', '.join(spec.scenarios) or 'none'}")
-        sc = spec.scenarios[scenario]
+    sc = scenario_of(spec, scenario, error=ReachError)
     if t_end is None:
         if sc is None:
             raise ReachError("t_end is required: give t_end or a scenario")

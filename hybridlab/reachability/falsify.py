@@ -31,13 +31,13 @@ import numpy as np
 from scipy import optimize
 from scipy.stats import qmc
 
-from hybridlab.model.loader import load_model
 from hybridlab.model.schema import Model
 from hybridlab.reachability.spec import Spec
 from hybridlab.simulation.api import simulate
 from hybridlab.simulation.options import SimulationOptions
+from hybridlab.simulation.resolve import as_compiled, scenario_of
 from hybridlab.simulation.result import SimulationResult
-from hybridlab.symbolic.compile import CompiledModel, compile_model
+from hybridlab.symbolic.compile import CompiledModel
 from hybridlab.symbolic.functions import VectorFunction
 
 __all__ = ["Problem", "FalsifyOptions", "Counterexample", "SpecMargin", "Falsification",
@@ -185,16 +185,9 @@ def resolve_problem(
     >>> pb.state_box, pb.param_box, pb.dims
     ({'h': (5.0, 10.0)}, {'e': (0.7, 0.9)}, 2)
     """
-    if isinstance(model, str | Path):
-        model = load_model(model)
-    compiled = model if isinstance(model, CompiledModel) else compile_model(model)
+    compiled = as_compiled(model)
     spec = compiled.model
-    if scenario is None and "default" in spec.scenarios:
-        scenario = "default"
-    if scenario is not None and scenario not in spec.scenarios:
-        known = ", ".join(spec.scenarios) or "none"
-        raise ValueError(f"scenario: unknown scenario {scenario!r}; the model has: {known}")
-    sc = spec.scenarios[scenario] if scenario is not None else None
+    sc = scenario_of(spec, scenario, prefix="scenario: ")
     t_start = float(sc.t_start) if sc is not None else 0.0
     t_end = float(t_end)
     if not (math.isfinite(t_end) and t_end > t_start):

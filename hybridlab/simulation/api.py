@@ -7,23 +7,15 @@ from pathlib import Path
 
 import numpy as np
 
-from hybridlab.model.loader import load_model
 from hybridlab.model.schema import Model
 from hybridlab.simulation.compiled import use_compiled
 from hybridlab.simulation.engine import run
 from hybridlab.simulation.options import SimulationOptions
+from hybridlab.simulation.resolve import as_compiled, scenario_of
 from hybridlab.simulation.result import SimulationResult
-from hybridlab.symbolic.compile import CompiledModel, compile_model
+from hybridlab.symbolic.compile import CompiledModel
 
 __all__ = ["simulate"]
-
-
-def _as_compiled(model: Model | CompiledModel | str | Path) -> CompiledModel:
-    if isinstance(model, CompiledModel):
-        return model
-    if isinstance(model, str | Path):
-        model = load_model(model)
-    return compile_model(model)
 
 
 def simulate(
@@ -88,16 +80,9 @@ def simulate(
     >>> result.events[0].post["v"] > 0
     True
     """
-    compiled = _as_compiled(model)
+    compiled = as_compiled(model)
     spec = compiled.model
-    if scenario is None and "default" in spec.scenarios:
-        scenario = "default"
-    sc = None
-    if scenario is not None:
-        if scenario not in spec.scenarios:
-            known = ", ".join(spec.scenarios) or "none"
-            raise ValueError(f"unknown scenario {scenario!r}; the model has: {known}")
-        sc = spec.scenarios[scenario]
+    sc = scenario_of(spec, scenario)
     if t_end is None:
         if sc is None:
             others = ", ".join(spec.scenarios)
