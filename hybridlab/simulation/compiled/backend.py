@@ -156,6 +156,11 @@ class Prepared:
     mode_names: tuple[str, ...]
     zeno_keys: tuple[str, ...]
     n_sig: int
+    #: event labels: per transition its name, per mode its switches' texts
+    jump_labels: tuple[str, ...] = ()
+    switch_labels: tuple[tuple[str, ...], ...] = ()
+    #: the kernel's schedule tables when no transition is scheduled (read only, shared by runs)
+    unscheduled: tuple | None = None
 
 
 _SCHED_ON = 15  # index of the per-run "schedule enabled" table in Prepared.ints
@@ -225,7 +230,13 @@ def prepare(compiled: CompiledModel) -> Prepared:
         [0] * max(n_tr, 1), list(source.reset_group) or [0], sw_key, tr_zkey or [0],
         [md.conditions.size if md.conditions is not None else 0 for md in modes],
         source.slide_group, source.switch_free))
-    prepared = Prepared(source, module, hit, ints, tuple(compiled.modes), tuple(keys), n_sig)
+    unscheduled = None
+    if all(tr.schedule is None for tr in compiled.transitions):
+        # (not flagged read-only: numba would type, and compile, the kernel anew for that)
+        unscheduled = (ints, (np.ones(max(n_tr, 1)), np.zeros(max(n_tr, 1))))
+    prepared = Prepared(source, module, hit, ints, tuple(compiled.modes), tuple(keys), n_sig,
+                        tuple(tr.name for tr in compiled.transitions),
+                        tuple(tuple(sw.text for sw in md.switches) for md in modes), unscheduled)
     _PREPARED[compiled] = prepared
     return prepared
 
@@ -251,17 +262,21 @@ def run(compiled: CompiledModel, *, t0: float, x0: np.ndarray, mode: str, t_end:
         prep = prepare(compiled)
     except UnsupportedModel as exc:
         return _fallback(compiled, f"unsupported model: {exc}", **kw)
-    ints = list(prep.ints)
     n_tr = len(compiled.transitions)
-    period = np.ones(max(n_tr, 1))
-    phase = np.zeros(max(n_tr, 1))
-    sched_on = np.zeros(max(n_tr, 1), dtype=np.int64)
-    for tr in compiled.transitions:
-        sched = tr.period_and_phase(p)
-        if sched is not None:
-            period[tr.index], phase[tr.index] = sched
-            sched_on[tr.index] = 1
-    ints[_SCHED_ON] = sched_on
+    if prep.unscheduled is not None:  # nothing depends on p: the tables made by prepare()
+        ints, reals = prep.unscheduled
+    else:
+        ints = list(prep.ints)
+        period = np.ones(max(n_tr, 1))
+        phase = np.zeros(max(n_tr, 1))
+        sched_on = np.zeros(max(n_tr, 1), dtype=np.int64)
+        for tr in compiled.transitions:
+            sched = tr.period_and_phase(p)
+            if sched is not None:
+                period[tr.index], phase[tr.index] = sched
+                sched_on[tr.index] = 1
+        ints[_SCHED_ON] = sched_on
+        ints, reals = tuple(ints), (period, phase)
     method = METHOD_CODES[o.method]
     opts_i = np.array([method, o.samples_per_step, o.max_refine, o.max_events,
                        o.max_event_iterations, o.zeno_window], dtype=np.int64)
@@ -271,7 +286,7 @@ def run(compiled: CompiledModel, *, t0: float, x0: np.ndarray, mode: str, t_end:
     zcount = np.zeros(max(n_keys, 1), dtype=np.int64)
     sched_done = np.full(max(n_tr, 1), -1, dtype=np.int64)
     m0 = prep.mode_names.index(mode)
-    out = run_kernel(prep.module.model, tuple(ints), (period, phase), opts_i, opts_f, float(t0),
+    out = run_kernel(prep.module.model, ints, reals, opts_i, opts_f, float(t0),
                      np.ascontiguousarray(x0, dtype=float), m0, float(t_end),
                      np.ascontiguousarray(p, dtype=float), prep.n_sig, ztimes, zcount,
                      sched_done)
@@ -331,32 +346,48 @@ def _hand_off(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, out
 _KINDS = ("jump", "crossing", "slide_start", "slide_end")
 
 
+def _new(cls: type, **fields: object) -> object:
+    """A frozen dataclass instance from its fields, without running ``__init__``.
+
+    ``Event`` and ``Segment`` have no ``__post_init__``, so this is the object
+    their ``__init__`` makes, at half the cost (a run builds one per event and segment).
+    """
+    obj = object.__new__(cls)
+    obj.__dict__.update(fields)
+    return obj
+
+
 def _records(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, EV: np.ndarray,
              PT: np.ndarray, ST: np.ndarray, SG: np.ndarray) -> tuple[list, list]:
     """Events and segments from the kernel's records."""
     names = compiled.state_names
     n = len(names)
     modes = prep.mode_names
-    cmodes = list(compiled.modes.values())
+    jump_labels, switch_labels = prep.jump_labels, prep.switch_labels
+    new = object.__new__
     events = []
-    for row in EV.tolist():
-        pre = dict(zip(names, row[7:7 + n], strict=True))
-        post = dict(zip(names, row[7 + n:], strict=True))
-        src, tgt = modes[int(row[3])], modes[int(row[4])]
-        kind = _KINDS[int(row[5])]
-        if kind == "jump":
-            label = compiled.transitions[int(row[2])].name
-        else:
-            label = cmodes[int(row[3])].switches[int(row[2])].text
-        events.append(Event(float(row[0]), int(row[1]), label, src, tgt, pre, post, kind,
-                            bool(row[6])))
+    if len(EV):
+        meta = EV[:, 1:6].astype(np.int64).tolist()
+        for t, (j, which, src, tgt, kind), grazing, pre, post in zip(
+                EV[:, 0].tolist(), meta, (EV[:, 6] != 0).tolist(), EV[:, 7:7 + n].tolist(),
+                EV[:, 7 + n:].tolist(), strict=True):
+            label = jump_labels[which] if kind == 0 else switch_labels[src][which]
+            event = new(Event)  # see _new
+            event.__dict__.update(t=t, j=j, transition=label, source=modes[src],
+                                  target=modes[tgt], pre=dict(zip(names, pre, strict=True)),
+                                  post=dict(zip(names, post, strict=True)), kind=_KINDS[kind],
+                                  grazing=grazing)
+            events.append(event)
     method = METHOD_CODES[o.method]
     segments = []
-    for mode_i, seg_j, p0, npt, s0, nst in SG.tolist():
-        pts = PT[p0:p0 + npt]
-        segments.append(Segment(modes[mode_i], seg_j, pts[:, 0].copy(),
-                                np.ascontiguousarray(pts[:, 1:].T),
-                                StepInterpolants(method, n, ST[s0:s0 + nst])))
+    if len(SG):
+        # one copy of the points for the whole run; each segment holds views of it
+        times = PT[:, 0].copy()
+        states = np.ascontiguousarray(PT[:, 1:].T)
+        for mode_i, seg_j, p0, npt, s0, nst in SG.tolist():
+            segments.append(_new(Segment, mode=modes[mode_i], j=seg_j, t=times[p0:p0 + npt],
+                                 y=states[:, p0:p0 + npt],
+                                 interpolants=StepInterpolants(method, n, ST[s0:s0 + nst])))
     return events, segments
 
 
