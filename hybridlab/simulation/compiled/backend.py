@@ -107,6 +107,8 @@ class StepInterpolants(Sequence):
     array([2.5])
     """
 
+    __slots__ = ("method", "n", "rows")  # one per segment and run: no instance dict
+
     def __init__(self, method: int, n: int, rows: np.ndarray) -> None:
         self.method, self.n, self.rows = method, n, rows
 
