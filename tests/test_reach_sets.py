@@ -8,6 +8,7 @@ with HiGHS.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -165,3 +166,20 @@ def test_set_errors_name_the_argument():
         Polytope([[1.0, 0.0]], [1.0]).bounds()
     with pytest.raises(SetError, match="points must have 2 columns"):
         Box([0.0, 0.0], [1.0, 1.0]).contains_points([1.0, 2.0, 3.0])
+
+
+def test_membership_lp_is_robust_to_badly_scaled_states():
+    """A trolley flowpipe set (18 states, 379 generators, extents from 1e-2 down to 3e-12)
+    and a simulated state inside it (tests/data; found by the trolley soundness test).
+    Unscaled, HiGHS returned an unknown status for this inside point; rows are now scaled by
+    their extent. Points pushed outside along the largest generator's direction are rejected."""
+    data = np.load(Path(__file__).parent / "data" / "trolley_zonotope_point.npz")
+    z = Zonotope(data["center"], data["generators"])
+    point = data["point"]
+    assert z.halfspaces() is None  # too many generators for facets: the LP decides
+    assert bool(z.contains_points(point, 1e-7))
+    radius = z.radius()
+    outside = point.copy()
+    k = int(np.argmax(radius))
+    outside[k] = z.center[k] + 1.5 * radius[k]
+    assert not bool(z.contains_points(outside, 1e-7))

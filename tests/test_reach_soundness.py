@@ -7,8 +7,9 @@ every jump, and each sample must lie in a reach set of the same mode whose time
 interval contains that instant. Uncertain parameters are sampled the same way.
 
 The trolley (18 states, Lagrangian mechanics with stick-slip friction, sensor and
-trajectory modes with scheduled and state events) is not covered: see
-``docs/verification.md``.
+trajectory modes with scheduled and state events) is covered over the first 2 ms of its
+step response only: it is stiff (steps of about 2e-5 s), so longer horizons cost minutes
+to hours; see ``docs/verification.md``.
 """
 
 from __future__ import annotations
@@ -38,7 +39,11 @@ CASES = {
                             {}, 5.0, {"step": 0.01}),
     "sampled_control": ("sampled_control", None, {"x": (0.9, 1.1), "u": (-0.1, 0.1)}, {}, 2.0,
                         {"step": 0.01}),
+    # the cart starts moving towards a 10 mm step with the pendulum anywhere in +-0.01 rad
+    "trolley_step_2ms": ("trolley", "step", {"phi": (-0.01, 0.01)}, {}, 0.002, {"step": 2e-5}),
 }
+#: samples per trajectory; the trolley's 18-state zonotopes need one LP per membership test
+GRID_POINTS = {"trolley_step_2ms": 301}
 
 
 def _starts(box: dict, params: dict, n_random: int, seed: int):
@@ -58,12 +63,12 @@ def test_sampled_trajectories_lie_in_the_flowpipes_at_all_times(case, models_dir
     model = hybridlab.load_model(models_dir / f"{name}.toml")
     result = reach(model, initial=box, params=params, t_end=t_end, scenario=scenario, **opts)
     assert result.complete, result.incomplete_reasons
-    checked = 0
+    checked, points = 0, GRID_POINTS.get(case, 2001)
     for x0, p in _starts(box, params, n_random=4, seed=5):
         sim = hybridlab.simulate(model, t_end=t_end, scenario=scenario, initial=x0,
                                  params=p or None, rtol=1e-10, atol=1e-12)
         assert sim.status.ok, sim.message if hasattr(sim, "message") else sim.status
-        grid = np.linspace(sim.segments[0].t_start, sim.final.t, 2001)
+        grid = np.linspace(sim.segments[0].t_start, sim.final.t, points)
         X = sim(grid).T
         modes = [sim.mode_at(t) for t in grid]
         inside = result.covers(grid, X, modes, tol=1e-7)
@@ -75,7 +80,7 @@ def test_sampled_trajectories_lie_in_the_flowpipes_at_all_times(case, models_dir
             assert result.covers([ev.t], pre, [ev.source], tol=1e-7).all(), (case, ev)
             assert result.covers([ev.t], post, [ev.target], tol=1e-7).all(), (case, ev)
         checked += grid.size
-    assert checked > 10_000
+    assert checked >= 5 * points
 
 
 def test_covers_rejects_states_outside_and_wrong_modes(models_dir):

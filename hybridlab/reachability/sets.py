@@ -291,12 +291,16 @@ class Zonotope:
         if np.any(p < lo[:, 0] - tol) or np.any(p > lo[:, 1] + tol):
             return False
         m = G.shape[1]
-        # minimise s subject to |G b - (p - c)| <= s, -1 <= b <= 1
-        A = np.block([[G, -np.ones((self.dim, 1))], [-G, -np.ones((self.dim, 1))]])
-        rhs = np.concatenate([p - self.center, self.center - p])
-        res = linprog(np.r_[np.zeros(m), 1.0], A_ub=A, b_ub=rhs,
-                      bounds=[(-1, 1)] * m + [(0, None)], method="highs")
-        return bool(res.status == 0 and res.fun <= tol)
+        # feasibility of |G b - (p - c)| <= tol with -1 <= b <= 1. Each row is scaled by its
+        # extent: states of very different sizes (1e-2 next to 1e-12) otherwise leave HiGHS
+        # with coefficients below its drop threshold and an "unknown" status for points that
+        # are inside. Scaling rows leaves the feasible set unchanged.
+        w = 1.0 / np.maximum(self.radius(), tol)
+        Gs, ds = G * w[:, None], (p - self.center) * w
+        A = np.vstack([Gs, -Gs])
+        rhs = np.concatenate([ds + w * tol, w * tol - ds])
+        res = linprog(np.zeros(m), A_ub=A, b_ub=rhs, bounds=[(-1, 1)] * m, method="highs")
+        return bool(res.status == 0)
 
     def intersect_halfspace(self, a: Sequence[float], b: float) -> Zonotope | None:
         """A zonotope containing ``Z ∩ {a . x <= b}`` (``None`` if that is empty).
