@@ -135,3 +135,11 @@ def test_lenient_compilation_still_reports_an_empty_domain() -> None:
             compile_interval(expr)({x: Interval(-3.0, -2.0)})
     r = compile_interval(sp.sqrt(x) + sp.Abs(y))({x: Interval(-1.0, 4.0), y: Interval(-1.0, 0.5)})
     assert r.lo <= 0.0 and 3.0 <= r.hi < 3.0 + 1e-12
+
+
+def test_text_is_never_evaluated():
+    """Strings are refused, not handed to sympify (which would eval them)."""
+    with pytest.raises(sp.SympifyError):
+        compile_interval("__import__('os').system('echo no')")
+    with pytest.raises(sp.SympifyError):
+        interval_eval("x + 1", {sp.Symbol("x"): (0.0, 1.0)})

@@ -152,7 +152,7 @@ def reach(
             where = [("guard", [r.expr for r in tr.guard]), ("reset", list(tr.reset)),
                      ("schedule", [e for e in (tr.period, tr.phase) if e is not None])]
             for part, exprs in where:
-                if any(psym[name] in sp.sympify(e).free_symbols for e in exprs):
+                if any(psym[name] in sp.sympify(e, strict=True).free_symbols for e in exprs):
                     raise ReachError(f"input {name!r} appears in the {part} of transition "
                                      f"{tr.name!r}; inputs may appear in flows only")
         for mode_name, m in symbolic.modes.items():
@@ -161,7 +161,7 @@ def reach(
                                  f"{mode_name!r}; inputs may appear in flows only")
     for name in uncertain:
         for tr in symbolic.transitions:
-            if any(psym[name] in sp.sympify(e).free_symbols
+            if any(psym[name] in sp.sympify(e, strict=True).free_symbols
                    for e in (tr.period, tr.phase) if e is not None):
                 raise ReachError(f"uncertain parameter {name!r} sets the schedule of "
                                  f"transition {tr.name!r}; scheduled instants must be known")

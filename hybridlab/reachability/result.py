@@ -33,7 +33,7 @@ class _Context:
 
     def compile(self, expr: str | sp.Expr) -> tuple[Any, ...]:
         """``("linear", a, b)`` or ``("interval", f, uses_t)`` for :meth:`ReachSet.bound`."""
-        key = expr if isinstance(expr, str) else sp.sympify(expr)
+        key = expr if isinstance(expr, str) else sp.sympify(expr, strict=True)
         if key in self.cache:
             return self.cache[key]
         e = parse_expression(expr, self.namespace) if isinstance(expr, str) else key

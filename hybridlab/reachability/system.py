@@ -247,7 +247,7 @@ def build_system(compiled: CompiledModel, values: np.ndarray,
                                        [sym.states[i] for i in mech.velocities])
 
     def subs(e: sp.Expr) -> sp.Expr:
-        return sp.sympify(e).xreplace(fixed)
+        return sp.sympify(e, strict=True).xreplace(fixed)
 
     flows = {name: tuple(subs(e) for e in mode_flow(sym, name, equations))
              for name in sym.modes}
@@ -258,7 +258,7 @@ def build_system(compiled: CompiledModel, values: np.ndarray,
     everything += [e for g in guard_exprs.values() for e in g]
     everything += [e for r in reset_exprs.values() for e in r]
     everything += [e for i in inv_exprs.values() for e in i]
-    timed = any(TIME in sp.sympify(e).free_symbols for e in everything)
+    timed = any(TIME in sp.sympify(e, strict=True).free_symbols for e in everything)
     zsyms = tuple(sym.states) + tuple(pmap[n] for n in uncertain) + ((TIME,) if timed else ())
     znames = tuple(sym.state_names) + tuple(uncertain) + (("t",) if timed else ())
     extra_flow = (sp.Integer(0),) * len(uncertain) + ((sp.Integer(1),) if timed else ())

@@ -443,7 +443,7 @@ class IntervalFunction:
     """
 
     def __init__(self, exprs: Sequence[sp.Expr], symbols: Sequence[sp.Symbol]) -> None:
-        self.exprs = tuple(sp.sympify(e) for e in exprs)
+        self.exprs = tuple(sp.sympify(e, strict=True) for e in exprs)
         index = {s: i for i, s in enumerate(symbols)}
         self._nodes = [_compile(e, index) for e in self.exprs]
 
@@ -483,7 +483,7 @@ def interval_eval(expr: sp.Expr,
     >>> r.lo <= -1.0 and r.hi >= 3.0
     True
     """
-    symbols = sorted(sp.sympify(expr).free_symbols, key=str)
+    symbols = sorted(sp.sympify(expr, strict=True).free_symbols, key=str)
     missing = [s for s in symbols if s not in box]
     if missing:
         raise IntervalError(f"no interval given for symbol {missing[0]}")
@@ -519,7 +519,7 @@ def compile_interval(expr: sp.Expr) -> Callable[[Mapping[sp.Symbol, Interval]], 
     >>> compile_interval(sp.Abs(x) - 1)({x: Interval(-3.0, 2.0)}).hi >= 2.0
     True
     """
-    expr = sp.sympify(expr)
+    expr = sp.sympify(expr, strict=True)
     symbols = sorted(expr.free_symbols, key=str)
     node = _compile(expr, {s: i for i, s in enumerate(symbols)}, lenient=True)
 
