@@ -52,11 +52,14 @@ def check_safety(
     initial: Mapping[str, float | tuple[float, float]] | Any,
     t_end: float,
     safe: str | Avoid | Spec | Iterable[str | Avoid | Spec],
+    executor: Any = None,
     **kwargs: Any,
 ) -> Verdict:
     """Check safety specs from an initial set; see :func:`hybridlab.reachability.verdict.check`.
 
     Returns the :class:`Verdict` whatever it is (SAFE, UNSAFE or UNKNOWN).
+    ``executor`` runs the pieces of a split initial set (``split=k``) on a
+    pool or cluster, as in :func:`hybridlab.reach`.
 
     Examples
     --------
@@ -66,7 +69,7 @@ def check_safety(
     >>> v.status.name, v.counterexample.mode, round(v.counterexample.t, 6)
     ('UNSAFE', 'fall', 1.325178)
     """
-    return check(model, initial=initial, t_end=t_end, safe=safe, **kwargs)
+    return check(model, initial=initial, t_end=t_end, safe=safe, executor=executor, **kwargs)
 
 
 def _message(verdict: Verdict) -> str:
@@ -96,6 +99,7 @@ def assert_safe(
     params: Mapping[str, float | tuple[float, float]] | None = None,
     inputs: Mapping[str, tuple[float, float]] | None = None,
     allow_unknown: bool = False,
+    executor: Any = None,
     **kwargs: Any,
 ) -> Verdict:
     """Assert that every trajectory from the initial set satisfies the specs.
@@ -107,6 +111,10 @@ def assert_safe(
     allow_unknown : bool
         Return an UNKNOWN verdict instead of raising (falsification still
         raises on a counterexample).
+    executor : optional
+        Where the pieces of a split initial set (``split=k``) are analysed:
+        ``"threads"``, ``"processes"``, a worker count, an Executor or a Dask
+        Client, as in :func:`hybridlab.reach` (default serial).
     **kwargs
         Passed to :func:`hybridlab.reachability.verdict.check` (``mode``,
         ``scenario``, ``options``, ``falsify_options``, ``max_jumps``, ...).
@@ -133,7 +141,7 @@ def assert_safe(
     ...
     """
     verdict = check(model, initial=initial, t_end=t_end, safe=safe, params=params,
-                    inputs=inputs, **kwargs)
+                    inputs=inputs, executor=executor, **kwargs)
     if verdict.status is VerdictStatus.SAFE:
         return verdict
     if verdict.status is VerdictStatus.UNKNOWN and allow_unknown:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import concurrent.futures as cf
 import json
 import math
 
@@ -187,3 +188,37 @@ mode = "on"
     assert split.bounds["x"][0] <= exact[0] and split.bounds["x"][1] >= 2.0
     with pytest.raises(ReachError, match="pieces"):
         reach(cubic, initial={"x": (0.5, 2.0)}, t_end=1.0, split=5000)
+
+
+def _same_sets(a, b) -> bool:
+    return len(a.sets) == len(b.sets) and all(
+        x.mode == y.mode and x.t == y.t and x.jumps == y.jumps
+        and np.array_equal(x.set.center, y.set.center)
+        and np.array_equal(x.set.generators, y.set.generators)
+        for x, y in zip(a.sets, b.sets, strict=True))
+
+
+def test_split_pieces_on_threads_and_processes_match_serial(models_dir):
+    ball = hybridlab.load_model(models_dir / "bouncing_ball.toml")
+    kw = dict(initial={"h": (9.0, 10.0), "v": (-0.5, 0.5)}, t_end=1.6, step=0.04, split=2)
+    serial = reach(ball, **kw)
+    assert serial.complete and len({s.jumps for s in serial.sets}) == 2  # one bounce
+    with cf.ThreadPoolExecutor(max_workers=2) as pool:
+        threads = reach(ball, executor=pool, **kw)
+        assert not pool._shutdown  # a user's executor is left running
+    processes = reach(ball, executor="processes", **kw)
+    for other in (threads, processes):
+        assert _same_sets(serial, other)
+        assert other.bounds == serial.bounds and other.complete
+        assert other.reachable_modes == serial.reachable_modes
+    # the merge keeps piece order: the first piece's sets come first
+    first = reach(ball, **{**kw, "split": 1, "initial": {"h": (9.0, 9.5), "v": (-0.5, 0.0)}})
+    assert np.array_equal(first.sets[0].set.center, processes.sets[0].set.center)
+
+
+@pytest.mark.parametrize("executor, token", [("gpus", "'gpus'"), (0, "at least 1 (got 0)"),
+                                              (True, "(got True)"), (2.5, "(got 2.5)")])
+def test_bad_executor_is_a_one_line_reach_error(thermostat, executor, token):
+    with pytest.raises(ReachError, match="^executor: ") as info:
+        reach(thermostat, initial=THERMO_INIT, t_end=1.0, split=2, executor=executor)
+    assert token in str(info.value) and "\n" not in str(info.value)

@@ -86,6 +86,10 @@ def test_no_prove_without_a_violation_is_unknown_exit_3(capsys):
     (["--t-end", "1", "--safe", "h >= 0", "--out", "v.csv"],
      "hybridlab: error: --out must end in .json (got 'v.csv')"),
     (["--safe", "h >= 0"], "hybridlab: error: the following arguments are required: --t-end"),
+    (["--t-end", "1", "--safe", "h >= 0", "--workers", "0"],
+     "hybridlab: error: argument --workers: '0' is not positive"),
+    (["--t-end", "1", "--safe", "h >= 0", "--split", "two"],
+     "hybridlab: error: argument --split: 'two' is not an integer"),
 ])
 def test_user_errors_exit_2_with_one_line(capsys, argv, message):
     code, out, err = _run(capsys, BALL, *argv)
@@ -109,6 +113,19 @@ def test_safe_exits_0_with_bounds_and_modes_in_the_json(capsys, tmp_path, decay)
     lo, hi = data["bounds"]["x"]
     assert lo <= math.exp(-1.0) and 2.0 <= hi < 2.01
     assert 0 <= data["margin"] <= math.exp(-1.0) - 0.3
+
+
+def test_split_pieces_on_worker_processes_give_the_serial_verdict(capsys, tmp_path, decay):
+    data = []
+    for extra in ([], ["--workers", "2"]):
+        out_file = tmp_path / f"split{len(extra)}.json"
+        code, out, _ = _run(capsys, decay, "--init", "x=1:2", "--t-end", "1", "--safe",
+                            "x >= 0.3", "--samples", "2", "--split", "2", *extra,
+                            "--out", str(out_file))
+        assert code == 0 and out.startswith("verdict: SAFE")
+        data.append(json.loads(out_file.read_text()))
+    assert data[0]["bounds"] == data[1]["bounds"] and data[0]["margin"] == data[1]["margin"]
+    assert data[0]["bounds"]["x"][1] >= 2.0
 
 
 def test_incomplete_reach_exits_3(capsys):

@@ -309,3 +309,15 @@ def test_unknown_when_the_bound_is_too_coarse_names_spec_mode_and_time():
     assert verdict.margin < 0 and verdict.where.mode == "run"
     assert "while no simulation violated it: the overlap may be spurious" in verdict.reason
     assert verdict.where.t[1] == pytest.approx(1.0)
+
+
+def test_executor_runs_split_pieces_and_a_bad_one_fails_before_any_work():
+    kw = dict(initial={"h": (5.0, 6.0)}, t_end=0.5, safe="h >= -1", split=2,
+              falsify_options=FalsifyOptions(samples=0, local_evals=0))
+    serial = check_safety(BALL, **kw)
+    threads = assert_safe(BALL, executor="threads", **kw)
+    assert serial.status is threads.status is VerdictStatus.SAFE
+    assert threads.reach.bounds == serial.reach.bounds
+    with pytest.raises(ValueError, match="^executor: .*got 'cluster'") as info:
+        check_safety(BALL, executor="cluster", **kw)
+    assert isinstance(info.value, hybridlab.errors.HybridlabError) and "\n" not in str(info.value)

@@ -3,20 +3,15 @@
 Workers receive the declarative model as its canonical JSON text and compile
 it themselves; compiled functions never cross a process boundary (a
 :class:`Model` that has been compiled carries its compiled form privately, so
-the text is sent rather than the object).
-Each process keeps a small cache of compiled models keyed by the model's
-content hash, so a worker compiles a model once however many chunks it runs.
-The cache is private to this module, holds nothing a user can observe except
-speed, and is bounded.
+the text is sent rather than the object). The text, its hash and the bounded
+per-process cache of compiled models live in :mod:`hybridlab.simulation.executors`
+(shared with :func:`hybridlab.reach`).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import math
-import threading
-from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -24,64 +19,14 @@ from typing import Any
 import numpy as np
 
 from hybridlab.ensemble.observables import Count, Observable
-from hybridlab.model.schema import Model
 from hybridlab.simulation.api import simulate
+from hybridlab.simulation.executors import compiled_for, model_key, model_text
 from hybridlab.simulation.observe import Observer
-from hybridlab.symbolic.compile import CompiledModel, compile_model
 
 __all__ = ["ERROR", "Chunk", "compiled_for", "model_key", "model_text", "run_chunk"]
 
 #: Status column value of a run that raised instead of returning a result.
 ERROR = "ERROR"
-
-_CACHE_SIZE = 8
-# A per-process cache (compiled model by content hash): see the module docstring.
-_compiled_cache: OrderedDict[str, CompiledModel] = OrderedDict()
-_cache_lock = threading.Lock()
-
-
-def model_text(model: Model) -> str:
-    """The canonical JSON text of a model, what workers receive."""
-    return model.model_dump_json()
-
-
-def model_key(text: str) -> str:
-    """Content hash of a model's JSON text.
-
-    Examples
-    --------
-    >>> import hybridlab
-    >>> ball = hybridlab.load_model("models/bouncing_ball.toml")
-    >>> copy = hybridlab.loads_model(hybridlab.dumps_model(ball))
-    >>> model_key(model_text(ball)) == model_key(model_text(copy))
-    True
-    """
-    return hashlib.sha256(text.encode()).hexdigest()
-
-
-def compiled_for(text: str, key: str | None = None, compiled: CompiledModel | None = None,
-                 model: Model | None = None) -> CompiledModel:
-    """The compiled model of JSON ``text`` from this process's cache, compiling on a miss.
-
-    On a miss, ``compiled`` (when given) is stored for ``key``; else ``model``
-    (when given) is compiled, which reuses the compiled form it may already
-    carry (and whatever a backend prepared for it, which forked workers then
-    inherit); else the text is parsed and compiled.
-    """
-    key = key or model_key(text)
-    with _cache_lock:
-        hit = _compiled_cache.get(key)
-        if hit is not None:
-            _compiled_cache.move_to_end(key)
-            return hit
-    if compiled is None:
-        compiled = compile_model(model if model is not None else Model.model_validate_json(text))
-    fresh = compiled
-    with _cache_lock:
-        _compiled_cache[key] = fresh
-        while len(_compiled_cache) > _CACHE_SIZE:
-            _compiled_cache.popitem(last=False)
-    return fresh
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,14 @@ from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.result import ReachResult, merge_results
 from hybridlab.reachability.sets import Box, Polytope, Zonotope, as_zonotope
 from hybridlab.reachability.system import build_system
+from hybridlab.reachability.worker import Piece, run_piece
+from hybridlab.simulation.executors import (
+    check_executor,
+    compiled_for,
+    model_key,
+    model_text,
+    place,
+)
 from hybridlab.simulation.resolve import as_compiled, scenario_of
 from hybridlab.symbolic.compile import CompiledModel
 
@@ -60,6 +68,7 @@ def reach(
     params: Mapping[str, float | tuple[float, float]] | None = None,
     inputs: Mapping[str, tuple[float, float]] | None = None,
     options: ReachOptions | None = None,
+    executor: Any = None,
     **option_overrides: Any,
 ) -> ReachResult:
     """Sets of states reachable from a set of initial states, sound in dense time.
@@ -88,6 +97,13 @@ def reach(
     options : ReachOptions, optional
         Settings; keyword arguments override its fields (``step=0.01``,
         ``max_jumps=10``, ...).
+    executor : optional
+        Where the pieces of a split initial set (``split > 1``) are analysed:
+        ``None`` or ``"serial"`` (in this process, one after another),
+        ``"threads"``, ``"processes"``, an int ``N`` (a process pool of ``N``
+        workers), any :class:`concurrent.futures.Executor` or a
+        ``distributed.Client``, as for :func:`hybridlab.sweep`. The result is
+        the same whatever runs it (sets merged in piece order).
 
     Returns
     -------
@@ -96,7 +112,8 @@ def reach(
     Raises
     ------
     ReachError
-        For unknown names, malformed intervals or sets, or a bad horizon.
+        For unknown names, malformed intervals or sets, a bad horizon or a bad
+        ``executor``.
 
     Examples
     --------
@@ -109,6 +126,7 @@ def reach(
     >>> bool(hi >= 10.0 and hi < 10.01 and lo <= 0.0)
     True
     """
+    check_executor(executor, ReachError)
     compiled = as_compiled(model)
     spec = compiled.model
     sc = scenario_of(spec, scenario, error=ReachError)
@@ -206,8 +224,40 @@ def reach(
     if opts.split == 1:
         return run_analysis(system, opts, mode, P0, t0, t_end, p)
     pieces = _split(P0, opts.split)
-    return merge_results([run_analysis(system, opts, mode, piece, t0, t_end, p)
-                          for piece in pieces])
+    if len(pieces) == 1:
+        return run_analysis(system, opts, mode, pieces[0], t0, t_end, p)
+    placement = place("serial" if executor is None else executor, len(pieces), ReachError)
+    try:
+        if placement.executor is None:
+            results = [run_analysis(system, opts, mode, piece, t0, t_end, p) for piece in pieces]
+        elif placement.in_process:  # threads share the system: nothing is pickled
+            results = _gather([placement.executor.submit(run_analysis, system, opts, mode,
+                                                         piece, t0, t_end, p)
+                               for piece in pieces])
+        else:
+            results = _gather([placement.executor.submit(run_piece, task) for task in
+                               _tasks(compiled, p, uncertain, bounded, opts, mode,
+                                      pieces, t0, t_end)])
+    finally:
+        placement.shutdown()
+    return merge_results(results)
+
+
+def _gather(futures: list[Any]) -> list[ReachResult]:
+    """The futures' results in submission order (the serial order)."""
+    return [future.result() for future in futures]
+
+
+def _tasks(compiled: CompiledModel, p: np.ndarray,
+           uncertain: Mapping[str, tuple[float, float]],
+           bounded: Mapping[str, tuple[float, float]], opts: ReachOptions, mode: str,
+           pieces: list[Zonotope], t0: float, t_end: float) -> list[Piece]:
+    """The pieces as picklable tasks for worker processes (the model as JSON text)."""
+    text = model_text(compiled.model)
+    key = model_key(text)
+    compiled_for(text, key, compiled)  # forked workers inherit this process's compiled model
+    return [Piece(text, key, p, dict(uncertain), dict(bounded), opts, mode, piece, t0, t_end)
+            for piece in pieces]
 
 
 _MAX_PIECES = 4096

@@ -104,11 +104,14 @@ def _run(args: argparse.Namespace) -> int:
         raise ValueError(f"--max-jumps must be >= 0 (got {args.max_jumps})")
     model = load_model(args.model)
     overrides = {} if args.max_jumps is None else {"max_jumps": args.max_jumps}
+    if args.split is not None:
+        overrides["split"] = args.split
     falsify_options = FalsifyOptions(samples=args.samples, seed=args.seed)
     verdict = check(model, initial=initial, t_end=args.t_end,
                     safe=[*args.safe, *_avoid(args.avoid)], mode=args.mode,
                     scenario=args.scenario, params=params, inputs=inputs,
-                    falsify_options=falsify_options, prove=not args.no_prove, **overrides)
+                    falsify_options=falsify_options, prove=not args.no_prove,
+                    executor=args.workers, **overrides)
     _print(verdict)
     if out is not None:
         out.write_text(json.dumps(verdict.as_dict(), indent=1) + "\n")
@@ -123,6 +126,13 @@ def _non_negative(text: str) -> int:
         raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
     if value < 0:
         raise argparse.ArgumentTypeError(f"{text!r} is negative")
+    return value
+
+
+def _positive(text: str) -> int:
+    value = _non_negative(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is not positive")
     return value
 
 
@@ -144,6 +154,10 @@ def add_reach_parser(sub: argparse._SubParsersAction) -> argparse.ArgumentParser
     p.add_argument("--avoid", action="append", metavar="NAME=LO:HI[,...]",
                    help="a box of states to avoid; repeatable")
     p.add_argument("--max-jumps", type=int, dest="max_jumps")
+    p.add_argument("--split", type=_positive, metavar="K",
+                   help="analyse K pieces along each uncertain direction of the initial set")
+    p.add_argument("--workers", type=_positive, default=1, metavar="N",
+                   help="processes analysing the --split pieces (default 1: serially)")
     p.add_argument("--scenario")
     p.add_argument("--mode", help="initial mode")
     p.add_argument("--samples", type=_non_negative, default=FalsifyOptions.samples,

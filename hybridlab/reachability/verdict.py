@@ -31,6 +31,7 @@ from hybridlab.reachability.falsify import (
     resolve_problem,
 )
 from hybridlab.reachability.spec import Avoid, Spec, as_specs
+from hybridlab.simulation.executors import check_executor
 from hybridlab.simulation.options import SimulationOptions
 from hybridlab.symbolic.compile import CompiledModel
 
@@ -196,6 +197,7 @@ def check(
     falsify_options: FalsifyOptions | None = None,
     simulation: SimulationOptions | None = None,
     prove: bool = True,
+    executor: Any = None,
     **reach_overrides: Any,
 ) -> Verdict:
     """Check safety specs on every trajectory from an initial set: falsify, then prove.
@@ -227,11 +229,17 @@ def check(
         Integrator settings for falsification (default: the scenario's).
     prove : bool
         ``False`` skips reachability (the verdict is then UNSAFE or UNKNOWN).
+    executor : optional
+        Where :func:`~hybridlab.reachability.reach` analyses the pieces of a
+        split initial set (``split=k``): ``"threads"``, ``"processes"``, a
+        worker count, an Executor or a Dask Client; default serial. A bad value
+        is an ``ExecutorError`` (a ``ValueError``) before any work.
 
     Returns
     -------
     Verdict
     """
+    check_executor(executor)
     started = time.perf_counter()
     problem = resolve_problem(model, initial=initial, t_end=t_end, mode=mode, scenario=scenario,
                               params=params, inputs=inputs, simulation=simulation)
@@ -260,7 +268,8 @@ def check(
 
     try:
         result = reach(compiled, initial=initial, t_end=t_end, mode=mode, scenario=scenario,
-                       params=params, inputs=inputs, options=options, **reach_overrides)
+                       params=params, inputs=inputs, options=options, executor=executor,
+                       **reach_overrides)
     except (HybridlabError, ArithmeticError, NotImplementedError, RuntimeError) as exc:
         text = " ".join(str(exc).split())
         return Verdict(VerdictStatus.UNKNOWN, texts,
