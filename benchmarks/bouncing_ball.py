@@ -18,7 +18,6 @@ Run ``python benchmarks/bouncing_ball.py [--quick] [--json FILE]``.
 
 from __future__ import annotations
 
-import argparse
 import math
 import statistics
 import sys
@@ -28,7 +27,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from common import ROOT, Report, add_arguments, print_report, repeat_count, time_calls, write_json
+from common import ROOT, Report, run_main, time_calls
 from scipy.integrate import solve_ivp
 
 import hybridlab
@@ -291,14 +290,7 @@ def run(repeat: int) -> Report:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    add_arguments(parser)
-    args = parser.parse_args(argv)
-    report = run(repeat_count(args))
-    print_report(report)
-    if args.json:
-        write_json(args.json, [report])
-    return 0
+    return run_main(run, __doc__.splitlines()[0], argv)
 
 
 if __name__ == "__main__":

@@ -217,3 +217,17 @@ def repeat_count(args: argparse.Namespace) -> int:
             raise SystemExit(f"--repeat must be at least 1 (got {args.repeat})")
         return args.repeat
     return QUICK_REPEAT if args.quick else DEFAULT_REPEAT
+
+
+def run_main(run: Callable[[int], Report], description: str,
+             argv: Sequence[str] | None = None) -> int:
+    """The command line every single-benchmark script shares: ``[--quick] [--repeat N]
+    [--json FILE]``; runs ``run(repeat)``, prints the report and optionally writes JSON."""
+    parser = argparse.ArgumentParser(description=description)
+    add_arguments(parser)
+    args = parser.parse_args(argv)
+    report = run(repeat_count(args))
+    print_report(report)
+    if args.json:
+        write_json(args.json, [report])
+    return 0

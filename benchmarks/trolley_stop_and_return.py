@@ -12,11 +12,10 @@ implementations are compared: ``trolley_bench.py``.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from collections.abc import Sequence
 
-from common import Report, add_arguments, print_report, repeat_count, write_json
+from common import Report, run_main
 from trolley_bench import run_job
 
 __all__ = ["run"]
@@ -29,14 +28,7 @@ def run(repeat: int) -> Report:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    add_arguments(parser)
-    args = parser.parse_args(argv)
-    report = run(repeat_count(args))
-    print_report(report)
-    if args.json:
-        write_json(args.json, [report])
-    return 0
+    return run_main(run, __doc__.splitlines()[0], argv)
 
 
 if __name__ == "__main__":
