@@ -40,9 +40,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.optimize import least_squares, minimize
 
 from hybridlab.errors import HybridlabError
+from hybridlab.identify._optimise import BudgetSpent, minimise_residuals
 from hybridlab.identify._report import axes, format_table
 from hybridlab.identify.data import SensorEvents
 from hybridlab.identify.errors import DataError
@@ -226,10 +226,6 @@ class EventFit:
         return ax
 
 
-class _Budget(Exception):
-    """Raised inside the objective when the simulation budget is spent."""
-
-
 def _check_sensors(sensors: SensorMap, compiled: CompiledModel) -> dict[str, tuple[str, str]]:
     if not isinstance(sensors, Mapping) or len(sensors) < 2:
         raise ValueError("sensors must map at least two sensor ids to (rising, falling) "
@@ -406,7 +402,7 @@ def fit_events(
         if key in cache:
             return cache[key]
         if count[0] >= limit[0]:
-            raise _Budget
+            raise BudgetSpent
         count[0] += 1
         values = dict(zip(fit, space.values(theta).tolist(), strict=True))
         try:
@@ -436,24 +432,11 @@ def fit_events(
         return out
 
     theta0 = space.theta0()
-    success, message = False, ""
-    jac: np.ndarray | None = None
-    x_opt = theta0
     limit[0] = max_evaluations - (len(fit) if method == "least_squares" else 0)
-    try:
-        if method == "least_squares":
-            sol = least_squares(lambda th: run(th)[0], theta0, bounds=(lo, hi),
-                                diff_step=diff_step, xtol=xtol, ftol=1e-6,
-                                max_nfev=max_evaluations)
-            success, message, jac, x_opt = bool(sol.success), str(sol.message), sol.jac, sol.x
-        else:
-            sol = minimize(lambda th: 0.5 * float(run(th)[0] @ run(th)[0]), theta0,
-                           method="Nelder-Mead", bounds=list(zip(lo, hi, strict=True)),
-                           options={"maxfev": max_evaluations, "xatol": xtol, "fatol": 1e-8,
-                                    "initial_simplex": _simplex(theta0, 0.1)})
-            success, message = bool(sol.success), str(sol.message)
-    except _Budget:
-        message = f"stopped after max_evaluations = {max_evaluations} simulations"
+    success, message, jac, x_opt = minimise_residuals(
+        lambda th: run(th)[0], theta0, lo, hi, method=method, max_evaluations=max_evaluations,
+        xtol=xtol, diff_step=diff_step, ftol=1e-6,
+        budget_text=f"stopped after max_evaluations = {max_evaluations} simulations")
     # the best point evaluated (the optimiser's answer, or the best so far when stopped)
     best = np.array(min(cache, key=lambda k: float(cache[k][0] @ cache[k][0])))
     residual, sim, n_edges = cache[tuple(np.round(best, 12))]
@@ -471,7 +454,7 @@ def fit_events(
                     jac[:, i] = (run(probe)[0] - residual) / h
             cov = float(residual @ residual) / dof * np.linalg.pinv(jac.T @ jac)
             se = np.sqrt(np.clip(np.diag(cov), 0, None)) * space.derivative(best)
-        except _Budget:
+        except BudgetSpent:
             pass
     k = min(n_m, len(sim))
     offset = float(np.mean(measured.t[:k] - sim.t[:k])) if k else float("nan")
@@ -518,12 +501,3 @@ class _Space:
         lo = np.where(self.log, 1.0 + lo_log, self.lower / self.scale)
         hi = np.where(self.log, 1.0 + hi_log, self.upper / self.scale)
         return lo, hi
-
-
-def _simplex(x0: np.ndarray, step: float) -> np.ndarray:
-    pts = [x0.copy()]
-    for i in range(len(x0)):
-        p = x0.copy()
-        p[i] += step
-        pts.append(p)
-    return np.array(pts)

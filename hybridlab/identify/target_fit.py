@@ -25,11 +25,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.optimize import least_squares, minimize
 
 from hybridlab.errors import HybridlabError
+from hybridlab.identify._optimise import BudgetSpent, minimise_residuals
 from hybridlab.identify._report import axes, format_table
-from hybridlab.identify.events import _Budget, _simplex, _Space
+from hybridlab.identify.events import _Space
 from hybridlab.identify.targets import Target, _Observers, target_statistic
 from hybridlab.model.schema import Model
 from hybridlab.simulation.api import simulate
@@ -296,7 +296,7 @@ def fit_targets(
         if key in cache:
             return cache[key]
         if count[0] >= limit[0]:
-            raise _Budget
+            raise BudgetSpent
         count[0] += 1
         values = dict(zip(fit, space.values(theta).tolist(), strict=True))
         cont = np.full(len(targets), np.nan)
@@ -317,24 +317,11 @@ def fit_targets(
         return cache[key]
 
     theta0 = space.theta0()
-    success, message = False, ""
-    jac: np.ndarray | None = None
-    x_opt = theta0
     limit[0] = max_evaluations - (len(fit) if method == "least_squares" else 0)
-    try:
-        if method == "least_squares":
-            sol = least_squares(lambda th: run(th)[0], theta0, bounds=(lo, hi),
-                                diff_step=diff_step, xtol=xtol, ftol=1e-8,
-                                max_nfev=max_evaluations)
-            success, message, jac, x_opt = bool(sol.success), str(sol.message), sol.jac, sol.x
-        else:
-            sol = minimize(lambda th: 0.5 * float(run(th)[0] @ run(th)[0]), theta0,
-                           method="Nelder-Mead", bounds=list(zip(lo, hi, strict=True)),
-                           options={"maxfev": max_evaluations, "xatol": xtol, "fatol": 1e-8,
-                                    "initial_simplex": _simplex(theta0, 0.1)})
-            success, message = bool(sol.success), str(sol.message)
-    except _Budget:
-        message = f"stopped after max_evaluations = {max_evaluations} parameter points"
+    success, message, jac, x_opt = minimise_residuals(
+        lambda th: run(th)[0], theta0, lo, hi, method=method, max_evaluations=max_evaluations,
+        xtol=xtol, diff_step=diff_step, ftol=1e-8,
+        budget_text=f"stopped after max_evaluations = {max_evaluations} parameter points")
     best = np.array(min(cache, key=lambda k: float(cache[k][0] @ cache[k][0])))
     residual, cont, shown = cache[tuple(np.round(best, 12))]
     limit[0] = max_evaluations
@@ -355,7 +342,7 @@ def fit_targets(
                     jac[:, i] = (run(probe)[0] - residual) / h
             se, singular, weakest, corr = _statistics(np.asarray(jac), fit)
             se = se * space.derivative(best)
-        except _Budget:
+        except BudgetSpent:
             message += "; no evaluations left for the uncertainties"
     first = cache.get(tuple(np.round(theta0, 12)))
     nan = np.full(len(targets), np.nan)
