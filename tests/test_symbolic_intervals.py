@@ -139,7 +139,7 @@ def test_lenient_compilation_still_reports_an_empty_domain() -> None:
 
 def test_text_is_never_evaluated():
     """Strings are refused, not handed to sympify (which would eval them)."""
-    with pytest.raises(sp.SympifyError):
+    with pytest.raises(TypeError, match="parse text"):
         compile_interval("__import__('os').system('echo no')")
-    with pytest.raises(sp.SympifyError):
+    with pytest.raises(TypeError, match="parse text"):
         interval_eval("x + 1", {sp.Symbol("x"): (0.0, 1.0)})

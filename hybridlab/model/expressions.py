@@ -12,6 +12,7 @@ from __future__ import annotations
 import ast
 import keyword
 import math
+import numbers
 import sys
 import unicodedata
 from collections.abc import Callable, Mapping
@@ -30,6 +31,7 @@ __all__ = [
     "parse_expression",
     "parse_relation",
     "check_name",
+    "as_expression",
 ]
 
 MAX_EXPRESSION_LENGTH = 10_000
@@ -421,3 +423,29 @@ def parse_relation(text: str, symbols: Mapping[str, sp.Expr]) -> list[Inequality
     hybridlab.errors.ExpressionError: only inequalities (<, <=, >, >=) are allowed (token '==')
     """
     return _Builder(text, symbols).relations(_parse_tree(text))
+
+
+def as_expression(value: object) -> sp.Expr:
+    """A sympy expression or a real number as a sympy expression; text is refused.
+
+    Text goes through :func:`parse_expression` (the whitelist); this helper is for
+    values that are already expressions, and never evaluates a string.
+
+    Examples
+    --------
+    >>> x = sp.Symbol("x")
+    >>> as_expression(x + 1), as_expression(2), as_expression(0.5)
+    (x + 1, 2, 0.500000000000000)
+    >>> as_expression("x + 1")
+    Traceback (most recent call last):
+    ...
+    TypeError: expected a sympy expression or a real number (got str); parse text with ...
+    """
+    if isinstance(value, sp.Basic):
+        return value
+    if isinstance(value, numbers.Integral) and not isinstance(value, bool):
+        return sp.Integer(int(value))
+    if isinstance(value, numbers.Real) and not isinstance(value, bool):
+        return sp.Float(float(value))
+    raise TypeError(f"expected a sympy expression or a real number (got {type(value).__name__}); "
+                    "parse text with hybridlab.model.expressions.parse_expression")

@@ -7,9 +7,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from hybridlab.errors import HybridlabError
+from hybridlab.model.expressions import as_expression
 from hybridlab.model.schema import Model
 from hybridlab.reachability.hybrid import run_analysis
 from hybridlab.reachability.options import ReachOptions
@@ -170,7 +170,7 @@ def reach(
             where = [("guard", [r.expr for r in tr.guard]), ("reset", list(tr.reset)),
                      ("schedule", [e for e in (tr.period, tr.phase) if e is not None])]
             for part, exprs in where:
-                if any(psym[name] in sp.sympify(e, strict=True).free_symbols for e in exprs):
+                if any(psym[name] in as_expression(e).free_symbols for e in exprs):
                     raise ReachError(f"input {name!r} appears in the {part} of transition "
                                      f"{tr.name!r}; inputs may appear in flows only")
         for mode_name, m in symbolic.modes.items():
@@ -179,7 +179,7 @@ def reach(
                                  f"{mode_name!r}; inputs may appear in flows only")
     for name in uncertain:
         for tr in symbolic.transitions:
-            if any(psym[name] in sp.sympify(e, strict=True).free_symbols
+            if any(psym[name] in as_expression(e).free_symbols
                    for e in (tr.period, tr.phase) if e is not None):
                 raise ReachError(f"uncertain parameter {name!r} sets the schedule of "
                                  f"transition {tr.name!r}; scheduled instants must be known")

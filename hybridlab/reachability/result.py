@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from hybridlab.model.expressions import parse_expression
+from hybridlab.model.expressions import as_expression, parse_expression
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.sets import Zonotope
 from hybridlab.symbolic.intervals import Interval, IntervalFunction
@@ -33,7 +33,7 @@ class _Context:
 
     def compile(self, expr: str | sp.Expr) -> tuple[Any, ...]:
         """``("linear", a, b)`` or ``("interval", f, uses_t)`` for :meth:`ReachSet.bound`."""
-        key = expr if isinstance(expr, str) else sp.sympify(expr, strict=True)
+        key = expr if isinstance(expr, str) else as_expression(expr)
         if key in self.cache:
             return self.cache[key]
         e = parse_expression(expr, self.namespace) if isinstance(expr, str) else key

@@ -22,6 +22,7 @@ import numpy as np
 import sympy as sp
 
 from hybridlab.model.checks import TIME
+from hybridlab.model.expressions import as_expression
 from hybridlab.symbolic.compile import CompiledModel
 from hybridlab.symbolic.discontinuities import extract_switches
 from hybridlab.symbolic.functions import _no_impulses
@@ -247,7 +248,7 @@ def build_system(compiled: CompiledModel, values: np.ndarray,
                                        [sym.states[i] for i in mech.velocities])
 
     def subs(e: sp.Expr) -> sp.Expr:
-        return sp.sympify(e, strict=True).xreplace(fixed)
+        return as_expression(e).xreplace(fixed)
 
     flows = {name: tuple(subs(e) for e in mode_flow(sym, name, equations))
              for name in sym.modes}
@@ -258,7 +259,7 @@ def build_system(compiled: CompiledModel, values: np.ndarray,
     everything += [e for g in guard_exprs.values() for e in g]
     everything += [e for r in reset_exprs.values() for e in r]
     everything += [e for i in inv_exprs.values() for e in i]
-    timed = any(TIME in sp.sympify(e, strict=True).free_symbols for e in everything)
+    timed = any(TIME in as_expression(e).free_symbols for e in everything)
     zsyms = tuple(sym.states) + tuple(pmap[n] for n in uncertain) + ((TIME,) if timed else ())
     znames = tuple(sym.state_names) + tuple(uncertain) + (("t",) if timed else ())
     extra_flow = (sp.Integer(0),) * len(uncertain) + ((sp.Integer(1),) if timed else ())

@@ -32,6 +32,7 @@ import numpy as np
 import sympy as sp
 
 from hybridlab.errors import HybridlabError
+from hybridlab.model.expressions import as_expression
 
 __all__ = ["EmptyInterval", "Interval", "IntervalError", "IntervalFunction", "compile_interval",
            "interval_eval"]
@@ -443,7 +444,7 @@ class IntervalFunction:
     """
 
     def __init__(self, exprs: Sequence[sp.Expr], symbols: Sequence[sp.Symbol]) -> None:
-        self.exprs = tuple(sp.sympify(e, strict=True) for e in exprs)
+        self.exprs = tuple(as_expression(e) for e in exprs)
         index = {s: i for i, s in enumerate(symbols)}
         self._nodes = [_compile(e, index) for e in self.exprs]
 
@@ -483,7 +484,7 @@ def interval_eval(expr: sp.Expr,
     >>> r.lo <= -1.0 and r.hi >= 3.0
     True
     """
-    symbols = sorted(sp.sympify(expr, strict=True).free_symbols, key=str)
+    symbols = sorted(as_expression(expr).free_symbols, key=str)
     missing = [s for s in symbols if s not in box]
     if missing:
         raise IntervalError(f"no interval given for symbol {missing[0]}")
@@ -519,7 +520,7 @@ def compile_interval(expr: sp.Expr) -> Callable[[Mapping[sp.Symbol, Interval]], 
     >>> compile_interval(sp.Abs(x) - 1)({x: Interval(-3.0, 2.0)}).hi >= 2.0
     True
     """
-    expr = sp.sympify(expr, strict=True)
+    expr = as_expression(expr)
     symbols = sorted(expr.free_symbols, key=str)
     node = _compile(expr, {s: i for i, s in enumerate(symbols)}, lenient=True)
 
