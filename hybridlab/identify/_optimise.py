@@ -7,12 +7,12 @@ and the best point evaluated so far is the answer.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 from scipy.optimize import least_squares, minimize
 
-__all__ = ["BudgetSpent", "minimise_residuals", "simplex"]
+__all__ = ["BudgetSpent", "ParameterSpace", "minimise_residuals", "simplex"]
 
 
 class BudgetSpent(Exception):
@@ -73,3 +73,63 @@ def minimise_residuals(residuals: Callable[[np.ndarray], np.ndarray], theta0: np
     except BudgetSpent:
         message = budget_text
     return success, message, jac, x_opt
+
+
+class ParameterSpace:
+    """The optimiser's coordinates ``theta`` of the fitted parameters.
+
+    A parameter whose bounds keep its sign is optimised as ``1 + log(p / p0)`` (relative
+    changes, positivity for free, and friction-like decays are closer to linear in it);
+    any other as ``p / |p0|``. Both start at ``|theta| = 1`` so that relative finite
+    difference steps have a sensible size.
+    """
+
+    @classmethod
+    def around(cls, fit: Sequence[str], start: Mapping[str, float],
+               bounds: Mapping[str, tuple[float, float]] | None) -> ParameterSpace:
+        """The space of parameters ``fit`` starting at ``start``, within ``bounds``
+        (default: the half-line of the start value's sign).
+
+        Examples
+        --------
+        >>> s = ParameterSpace.around(["k", "c"], {"k": 2.0, "c": -1.0}, {"c": (-3.0, 3.0)})
+        >>> s.theta0().tolist(), s.values(s.theta0()).tolist()
+        ([1.0, -1.0], [2.0, -1.0])
+        """
+        lower, upper = [], []
+        for n in fit:
+            b = (bounds or {}).get(n)
+            if b is None:
+                b = (0.0, np.inf) if start[n] >= 0 else (-np.inf, 0.0)
+            if not (len(b) == 2 and b[0] < b[1] and b[0] <= start[n] <= b[1]):
+                raise ValueError(f"bounds[{n!r}] must be (low, high) with low < high around the "
+                                 f"start value {start[n]:g} (got {b!r})")
+            lower.append(float(b[0]))
+            upper.append(float(b[1]))
+        return cls(np.array([start[n] for n in fit]), np.array(lower), np.array(upper))
+
+    def __init__(self, p0: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
+        self.p0 = p0
+        self.lower, self.upper = lower, upper
+        self.log = (p0 != 0) & (((p0 > 0) & (lower >= 0)) | ((p0 < 0) & (upper <= 0)))
+        self.scale = np.where(p0 != 0, np.abs(p0), 1.0)
+
+    def theta0(self) -> np.ndarray:
+        return np.where(self.log, 1.0, self.p0 / self.scale)
+
+    def values(self, theta: np.ndarray) -> np.ndarray:
+        return np.where(self.log, self.p0 * np.exp(np.where(self.log, theta - 1.0, 0.0)),
+                        theta * self.scale)
+
+    def derivative(self, theta: np.ndarray) -> np.ndarray:
+        """``|dp / dtheta|`` (to turn standard errors of ``theta`` into those of ``p``)."""
+        return np.abs(np.where(self.log, self.values(theta), self.scale))
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio_lo, ratio_hi = self.lower / self.p0, self.upper / self.p0
+            lo_log = np.log(np.where(self.p0 > 0, ratio_lo, ratio_hi))
+            hi_log = np.log(np.where(self.p0 > 0, ratio_hi, ratio_lo))
+        lo = np.where(self.log, 1.0 + lo_log, self.lower / self.scale)
+        hi = np.where(self.log, 1.0 + hi_log, self.upper / self.scale)
+        return lo, hi

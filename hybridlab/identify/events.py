@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 
 from hybridlab.errors import HybridlabError
-from hybridlab.identify._optimise import BudgetSpent, minimise_residuals
+from hybridlab.identify._optimise import BudgetSpent, ParameterSpace, minimise_residuals
 from hybridlab.identify._report import axes, format_table
 from hybridlab.identify.data import SensorEvents
 from hybridlab.identify.errors import DataError
@@ -365,17 +365,7 @@ def fit_events(
     fixed = {**(sc.parameters if sc else {}), **(params or {})}
     base = dict(zip(names, compiled.parameter_vector(fixed), strict=True))
     start = {n: float((initial_guess or {}).get(n, base[n])) for n in fit}
-    lower, upper = [], []
-    for n in fit:
-        b = (bounds or {}).get(n)
-        if b is None:
-            b = (0.0, np.inf) if start[n] >= 0 else (-np.inf, 0.0)
-        if not (len(b) == 2 and b[0] < b[1] and b[0] <= start[n] <= b[1]):
-            raise ValueError(f"bounds[{n!r}] must be (low, high) with low < high around the "
-                             f"start value {start[n]:g} (got {b!r})")
-        lower.append(float(b[0]))
-        upper.append(float(b[1]))
-    space = _Space(np.array([start[n] for n in fit]), np.array(lower), np.array(upper))
+    space = ParameterSpace.around(fit, start, bounds)
     lo, hi = space.bounds()
     distance = (base[sensor_distance] if isinstance(sensor_distance, str)
                 and sensor_distance in base else sensor_distance)
@@ -465,39 +455,3 @@ def fit_events(
         success=success, message=message, measured=measured, simulated=sim,
         n_edges_measured=len(events), n_edges_simulated=n_edges, time_offset=offset,
         sensor_distance=None if distance is None else float(distance))
-
-
-class _Space:
-    """The optimiser's coordinates ``theta`` of the fitted parameters.
-
-    A parameter whose bounds keep its sign is optimised as ``1 + log(p / p0)`` (relative
-    changes, positivity for free, and friction-like decays are closer to linear in it);
-    any other as ``p / |p0|``. Both start at ``|theta| = 1`` so that relative finite
-    difference steps have a sensible size.
-    """
-
-    def __init__(self, p0: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
-        self.p0 = p0
-        self.lower, self.upper = lower, upper
-        self.log = (p0 != 0) & (((p0 > 0) & (lower >= 0)) | ((p0 < 0) & (upper <= 0)))
-        self.scale = np.where(p0 != 0, np.abs(p0), 1.0)
-
-    def theta0(self) -> np.ndarray:
-        return np.where(self.log, 1.0, self.p0 / self.scale)
-
-    def values(self, theta: np.ndarray) -> np.ndarray:
-        return np.where(self.log, self.p0 * np.exp(np.where(self.log, theta - 1.0, 0.0)),
-                        theta * self.scale)
-
-    def derivative(self, theta: np.ndarray) -> np.ndarray:
-        """``|dp / dtheta|`` (to turn standard errors of ``theta`` into those of ``p``)."""
-        return np.abs(np.where(self.log, self.values(theta), self.scale))
-
-    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio_lo, ratio_hi = self.lower / self.p0, self.upper / self.p0
-            lo_log = np.log(np.where(self.p0 > 0, ratio_lo, ratio_hi))
-            hi_log = np.log(np.where(self.p0 > 0, ratio_hi, ratio_lo))
-        lo = np.where(self.log, 1.0 + lo_log, self.lower / self.scale)
-        hi = np.where(self.log, 1.0 + hi_log, self.upper / self.scale)
-        return lo, hi

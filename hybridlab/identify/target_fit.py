@@ -27,9 +27,8 @@ from typing import Any
 import numpy as np
 
 from hybridlab.errors import HybridlabError
-from hybridlab.identify._optimise import BudgetSpent, minimise_residuals
+from hybridlab.identify._optimise import BudgetSpent, ParameterSpace, minimise_residuals
 from hybridlab.identify._report import axes, format_table
-from hybridlab.identify.events import _Space
 from hybridlab.identify.targets import Target, _Observers, target_statistic
 from hybridlab.model.schema import Model
 from hybridlab.simulation.api import simulate
@@ -267,17 +266,7 @@ def fit_targets(
     if unknown:
         raise ValueError(f"initial_guess: {unknown[0]!r} is not a fitted parameter")
     start = {n: float((initial_guess or {}).get(n, base[n])) for n in fit}
-    lower, upper = [], []
-    for n in fit:
-        b = (bounds or {}).get(n)
-        if b is None:
-            b = (0.0, np.inf) if start[n] >= 0 else (-np.inf, 0.0)
-        if not (len(b) == 2 and b[0] < b[1] and b[0] <= start[n] <= b[1]):
-            raise ValueError(f"bounds[{n!r}] must be (low, high) with low < high around the "
-                             f"start value {start[n]:g} (got {b!r})")
-        lower.append(float(b[0]))
-        upper.append(float(b[1]))
-    space = _Space(np.array([start[n] for n in fit]), np.array(lower), np.array(upper))
+    space = ParameterSpace.around(fit, start, bounds)
     lo, hi = space.bounds()
 
     experiments: dict[tuple[Any, ...], list[int]] = {}
