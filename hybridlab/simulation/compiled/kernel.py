@@ -44,6 +44,7 @@ from hybridlab.simulation.compiled.locate import EXIT, GUARD, INVARIANT, SWITCH,
 from hybridlab.simulation.compiled.signatures import ptr
 from hybridlab.simulation.compiled.sliding import (
     OK,
+    active_indices,
     enter_mode,
     flag_index,
     flow_eq,
@@ -117,16 +118,7 @@ def _zeno_record(ztimes, zcount, key, t, window, tol, resolution):
 def _fc(ints, m, slm, W):
     """The flow context of mode ``m`` with the sliding set ``slm`` (see :mod:`.sliding`)."""
     ns = ints[7][m]
-    c = 0
-    for k in range(ns):
-        if slm[k]:
-            c += 1
-    sl = np.empty(c, dtype=np.int64)
-    c = 0
-    for k in range(ns):
-        if slm[k]:
-            sl[c] = k
-            c += 1
+    sl = active_indices(slm, ns)
     return (ints[0][m], ints[2][m], ints[3][m], ints[4][m], ns, sl, W, ints[20][m], ints[21][m])
 
 

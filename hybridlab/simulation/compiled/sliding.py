@@ -36,7 +36,8 @@ import numpy as np
 from hybridlab.simulation.compiled.signatures import ptr, ptr_at
 
 __all__ = ["workspace", "flag_index", "equivalent", "flow_sliding", "flow_eq", "rhs",
-           "enter_mode", "resolve", "update_switches", "OK", "NOT_AFFINE", "SINGULAR"]
+           "enter_mode", "resolve", "update_switches", "active_indices", "OK", "NOT_AFFINE",
+           "SINGULAR"]
 
 OP_FLOW, OP_SWITCH, OP_SWITCH_LIE, OP_SWITCH_GRAD, OP_FLOW_DSIGMA, OP_SLIDE_PARTS = \
     0, 3, 4, 8, 9, 10
@@ -250,7 +251,8 @@ def _leave(sig, previous, slm, k, d_plus, d_minus):
 
 
 @numba.njit(cache=True)
-def _indices(slm, m):
+def active_indices(slm, m):
+    """Indices ``k < m`` of the switching surfaces with ``slm[k]`` set (the sliding set)."""
     c = 0
     for k in range(m):
         if slm[k]:
@@ -286,11 +288,11 @@ def resolve(model, fc, affine, t, x, p, sig, at_surface, forced, forced_value, s
             d_plus, d_minus = _sides(model, fc, t, x, p, sig, k, f, lie, tmp)
             if abs(d_plus - d_minus) <= 1e-14 * (abs(d_plus) + abs(d_minus)):
                 _leave(sig, previous, slm, k, d_plus, d_minus)
-    count = _indices(slm, m).size
+    count = active_indices(slm, m).size
     dp = np.empty(m)
     dm = np.empty(m)
     for _ in range(2 * count + 2):
-        idx = _indices(slm, m)
+        idx = active_indices(slm, m)
         if idx.size == 0:
             break
         if not affine:
