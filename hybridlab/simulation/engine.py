@@ -25,6 +25,7 @@ import numpy as np
 from scipy import integrate
 
 from hybridlab.errors import SimulationError, ZenoError
+from hybridlab.simulation.interpolant import dense_slope
 from hybridlab.simulation.location import (
     Trigger,
     first_trigger,
@@ -240,12 +241,22 @@ class _Run:
         return rows
 
     def monitor_batch(self, mode: CompiledMode, rows: list[_Monitor], tau: np.ndarray,
-                      x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                      x: np.ndarray,
+                      xdot: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Monitor values and slopes at the points ``(tau, x)``.
+
+        The slopes are taken along ``xdot`` (the dense output's derivative at
+        a step's samples) when given, else along the flow (with the
+        equivalent signs while switches slide).
+        """
         p = self.p
         sigma = self.sigma
         eq = None
         if self.sliding:
             eq = equivalent_sigma_batch(mode, tau, x, p, sigma, self.sliding)
+        if xdot is not None:
+            f = xdot
+        elif self.sliding:
             sig_k = np.repeat(sigma[:, None], tau.size, axis=1)
             sig_k[list(self.sliding)] = eq
             f = mode.flow.batch(tau, x, p, sig_k)  # sigma per sample: rows broadcast
@@ -301,7 +312,7 @@ class _Run:
             return [], armed
 
         def batch(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            return self.monitor_batch(mode, rows, tau, dense(tau))
+            return self.monitor_batch(mode, rows, tau, dense(tau), dense_slope(dense, tau))
 
         tau, phi, dphi, refinements = sample_step(t0, t1, batch, self.o.samples_per_step,
                                                   self.o.max_refine, self.o.event_atol)

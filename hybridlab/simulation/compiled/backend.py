@@ -25,7 +25,7 @@ import sys
 import weakref
 from collections import deque
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
 
@@ -34,7 +34,12 @@ import numpy as np
 
 from hybridlab.errors import ZenoError
 from hybridlab.simulation import engine
-from hybridlab.simulation.compiled.codegen import ModelSource, UnsupportedModel, generate
+from hybridlab.simulation.compiled.codegen import (
+    ModelSource,
+    UnsupportedModel,
+    active_states,
+    generate,
+)
 from hybridlab.simulation.compiled.integrate import METHOD_CODES
 from hybridlab.simulation.compiled.kernel import (
     COMPLETED,
@@ -163,6 +168,36 @@ class Prepared:
     switch_labels: tuple[tuple[str, ...], ...] = ()
     #: the kernel's schedule tables when no transition is scheduled (read only, shared by runs)
     unscheduled: tuple | None = None
+    #: the scheduled transitions, and the schedule tables of the parameter vector last used
+    scheduled: tuple = ()
+    last_schedule: dict = field(default_factory=dict, compare=False)
+
+    def schedule_tables(self, p: np.ndarray) -> tuple[tuple, tuple]:
+        """The kernel's ``ints`` and ``reals`` for parameters ``p``.
+
+        Only the scheduled transitions are evaluated, and the tables of the
+        last parameter vector are kept: runs of one model with the same
+        parameters (a repeated call, a sweep over initial states) reuse them.
+        """
+        if self.unscheduled is not None:  # nothing depends on p: the tables made by prepare()
+            return self.unscheduled
+        key = p.tobytes()
+        tables = self.last_schedule.get(key)
+        if tables is None:
+            n = max(len(self.jump_labels), 1)
+            ints = list(self.ints)
+            period, phase = np.ones(n), np.zeros(n)
+            sched_on = np.zeros(n, dtype=np.int64)
+            for tr in self.scheduled:
+                sched = tr.period_and_phase(p)
+                if sched is not None:
+                    period[tr.index], phase[tr.index] = sched
+                    sched_on[tr.index] = 1
+            ints[_SCHED_ON] = sched_on
+            tables = (tuple(ints), (period, phase))
+            self.last_schedule.clear()
+            self.last_schedule[key] = tables
+        return tables
 
 
 _SCHED_ON = 15  # index of the per-run "schedule enabled" table in Prepared.ints
@@ -231,14 +266,15 @@ def prepare(compiled: CompiledModel) -> Prepared:
         [int(tr.scheduled) for tr in compiled.transitions] or [0],
         [0] * max(n_tr, 1), list(source.reset_group) or [0], sw_key, tr_zkey or [0],
         [md.conditions.size if md.conditions is not None else 0 for md in modes],
-        source.slide_group, source.switch_free))
+        source.slide_group, source.switch_free, *active_states(compiled)))
     unscheduled = None
     if all(tr.schedule is None for tr in compiled.transitions):
         # (not flagged read-only: numba would type, and compile, the kernel anew for that)
         unscheduled = (ints, (np.ones(max(n_tr, 1)), np.zeros(max(n_tr, 1))))
     prepared = Prepared(source, module, hit, ints, tuple(compiled.modes), tuple(keys), n_sig,
                         tuple(tr.name for tr in compiled.transitions),
-                        tuple(tuple(sw.text for sw in md.switches) for md in modes), unscheduled)
+                        tuple(tuple(sw.text for sw in md.switches) for md in modes), unscheduled,
+                        tuple(tr for tr in compiled.transitions if tr.scheduled))
     _PREPARED[compiled] = prepared
     return prepared
 
@@ -265,20 +301,7 @@ def run(compiled: CompiledModel, *, t0: float, x0: np.ndarray, mode: str, t_end:
     except UnsupportedModel as exc:
         return _fallback(compiled, f"unsupported model: {exc}", **kw)
     n_tr = len(compiled.transitions)
-    if prep.unscheduled is not None:  # nothing depends on p: the tables made by prepare()
-        ints, reals = prep.unscheduled
-    else:
-        ints = list(prep.ints)
-        period = np.ones(max(n_tr, 1))
-        phase = np.zeros(max(n_tr, 1))
-        sched_on = np.zeros(max(n_tr, 1), dtype=np.int64)
-        for tr in compiled.transitions:
-            sched = tr.period_and_phase(p)
-            if sched is not None:
-                period[tr.index], phase[tr.index] = sched
-                sched_on[tr.index] = 1
-        ints[_SCHED_ON] = sched_on
-        ints, reals = tuple(ints), (period, phase)
+    ints, reals = prep.schedule_tables(np.ascontiguousarray(p, dtype=float))
     method = METHOD_CODES[o.method]
     opts_i = np.array([method, o.samples_per_step, o.max_refine, o.max_events,
                        o.max_event_iterations, o.zeno_window], dtype=np.int64)

@@ -79,8 +79,13 @@ def initial_step(model, fc, t0, y0, f0, t_bound, max_step, order, rtol, atol, p,
 
 @numba.njit(cache=True)
 def _stages(model, method, fc, t, y, f, h, p, sig, K, y_new, f_new, tmp):
-    """One Runge-Kutta step (``rk_step``): stages into ``K``, result into y_new, f_new."""
-    n = y.size
+    """One Runge-Kutta step (``rk_step``): stages into ``K``, result into y_new, f_new.
+
+    Only the states of the flow context's active set ``fc[9]`` are combined:
+    the others have a flow that is identically zero in this mode, so their
+    stages are exact zeros and their values stay as they are.
+    """
+    act = fc[9]
     if method == RK45:
         A, B, C = _RK_A, _RK_B, _RK_C
         ns = A.shape[0]
@@ -88,14 +93,18 @@ def _stages(model, method, fc, t, y, f, h, p, sig, K, y_new, f_new, tmp):
         A, B, C = _DP_A, _DP_B, _DP_C
         ns = _DP_N
     K[0, :] = f
+    tmp[:] = y
     for s in range(1, ns):
-        for i in range(n):
+        for a in range(act.size):
+            i = act[a]
             acc = 0.0
             for r in range(s):
                 acc += K[r, i] * A[s, r]
             tmp[i] = y[i] + acc * h
         rhs(model, fc, t + C[s] * h, tmp, p, sig, K[s])
-    for i in range(n):
+    y_new[:] = y
+    for a in range(act.size):
+        i = act[a]
         acc = 0.0
         for r in range(ns):
             acc += K[r, i] * B[r]
@@ -105,12 +114,13 @@ def _stages(model, method, fc, t, y, f, h, p, sig, K, y_new, f_new, tmp):
 
 
 @numba.njit(cache=True)
-def _error_norm(method, K, h, scale):
-    n = scale.size
+def _error_norm(method, K, h, scale, act, n):
+    """scipy's error norm over all ``n`` states; the inactive ones contribute exact zeros."""
     if method == RK45:
         E = _RK_E
         acc = 0.0
-        for i in range(n):
+        for a in range(act.size):
+            i = act[a]
             e = 0.0
             for r in range(E.size):
                 e += K[r, i] * E[r]
@@ -119,7 +129,8 @@ def _error_norm(method, K, h, scale):
         return np.sqrt(acc) / n ** 0.5
     e5n = 0.0
     e3n = 0.0
-    for i in range(n):
+    for a in range(act.size):
+        i = act[a]
         e5 = 0.0
         e3 = 0.0
         for r in range(_DP_N + 1):
@@ -150,6 +161,7 @@ def rk_step(model, method, fc, t, y, f, t_bound, h_abs_in, max_step, rtol, atol,
         h_abs = h_abs_in
     rejected = False
     n = y.size
+    act = fc[9]
     scale = np.empty(n)
     while True:
         if h_abs < min_step:
@@ -161,9 +173,10 @@ def rk_step(model, method, fc, t, y, f, t_bound, h_abs_in, max_step, rtol, atol,
         h = t_new - t
         h_abs = abs(h)
         _stages(model, method, fc, t, y, f, h, p, sig, K, y_new, f_new, tmp)
-        for i in range(n):
+        for a in range(act.size):
+            i = act[a]
             scale[i] = atol + max(abs(y[i]), abs(y_new[i])) * rtol
-        err = _error_norm(method, K, h, scale)
+        err = _error_norm(method, K, h, scale, act, n)
         if err < 1:
             if err == 0:
                 factor = _MAX_FACTOR
@@ -179,25 +192,33 @@ def rk_step(model, method, fc, t, y, f, t_bound, h_abs_in, max_step, rtol, atol,
 
 @numba.njit(cache=True)
 def dense_coefficients(model, method, fc, t_old, h, y_old, y, f, p, sig, K, tmp, coef):
-    """Interpolant of the last step into ``coef`` (``Q.T`` for RK45, ``F`` for DOP853)."""
-    n = y.size
+    """Interpolant of the last step into ``coef`` (``Q.T`` for RK45, ``F`` for DOP853).
+
+    Only the columns of the active states ``fc[9]`` are written; the caller
+    zeroes ``coef`` when the active set changes, so the others stay zero.
+    """
+    act = fc[9]
     if method == RK45:
         P = _RK_P
         for j in range(P.shape[1]):
-            for i in range(n):
+            for a in range(act.size):
+                i = act[a]
                 acc = 0.0
                 for r in range(K.shape[0]):
                     acc += K[r, i] * P[r, j]
                 coef[j, i] = acc
         return
+    tmp[:] = y_old
     for s in range(_DP_N + 1, K.shape[0]):
-        for i in range(n):
+        for a in range(act.size):
+            i = act[a]
             acc = 0.0
             for r in range(s):
                 acc += K[r, i] * _DP_A[s, r]
             tmp[i] = y_old[i] + acc * h
         rhs(model, fc, t_old + _DP_C[s] * h, tmp, p, sig, K[s])
-    for i in range(n):
+    for a in range(act.size):
+        i = act[a]
         dy = y[i] - y_old[i]
         coef[0, i] = dy
         coef[1, i] = h * K[0, i] - dy
@@ -209,13 +230,14 @@ def dense_coefficients(model, method, fc, t_old, h, y_old, y, f, p, sig, K, tmp,
             coef[3 + j, i] = h * acc
 
 
-@numba.njit(cache=True)
-def dense_eval(method, coef, t_old, h, y_old, t, out):
-    """The step's interpolant at ``t`` into ``out``."""
+@numba.njit(cache=True, inline="always")
+def dense_eval(method, coef, t_old, h, y_old, act, t, out):
+    """The step's interpolant at ``t`` into ``out`` (inactive states: ``y_old``)."""
     x = (t - t_old) / h
-    n = y_old.size
+    out[:] = y_old
     if method == RK45:
-        for i in range(n):
+        for a in range(act.size):
+            i = act[a]
             acc = 0.0
             pw = 1.0
             for j in range(coef.shape[0]):
@@ -224,7 +246,8 @@ def dense_eval(method, coef, t_old, h, y_old, t, out):
             out[i] = h * acc + y_old[i]
         return
     m = coef.shape[0]
-    for i in range(n):
+    for a in range(act.size):
+        i = act[a]
         acc = 0.0
         for k in range(m):
             acc += coef[m - 1 - k, i]

@@ -119,7 +119,9 @@ def _fc(ints, m, slm, W):
     """The flow context of mode ``m`` with the sliding set ``slm`` (see :mod:`.sliding`)."""
     ns = ints[7][m]
     sl = active_indices(slm, ns)
-    return (ints[0][m], ints[2][m], ints[3][m], ints[4][m], ns, sl, W, ints[20][m], ints[21][m])
+    act = ints[23][ints[22][m]:ints[22][m + 1]]
+    return (ints[0][m], ints[2][m], ints[3][m], ints[4][m], ns, sl, W, ints[20][m], ints[21][m],
+            act)
 
 
 @numba.njit(cache=True)
@@ -148,13 +150,14 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
     transition target, guard group, monitored (0/1, then guard rows), scheduled
     (0/1), schedule enabled (0/1), reset group; per mode and switch the Zeno key;
     per transition the Zeno key; per mode the condition rows, the fused sliding
-    group and whether its switching functions are free of sigma. ``reals``: per
+    group and whether its switching functions are free of sigma; per mode a pointer
+    into the list of its active states, and that list. ``reals``: per
     transition period, phase. Returns the records, the final run state and the
     checkpoint (meaningful for :data:`HANDOFF`).
     """
     (fgs, cgs, sgs, ggs, dgs, inv_off, n_inv, n_sw, affine, out_ptr, out_list, tr_target,
      tr_guard, tr_monitored, tr_sched, tr_sched_on, tr_reset, sw_key, tr_zkey, n_cond, _,
-     _) = ints
+     _, _, _) = ints
     period, phase = reals
     method, samples, max_refine, max_events, max_iter, window = (
         opts_i[0], opts_i[1], opts_i[2], opts_i[3], opts_i[4], opts_i[5])
@@ -473,7 +476,8 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
             if M > 0:
                 phi0 = np.empty((M, 1))
                 dphi0 = np.empty((M, 1))
-                monitors_at(model, md, p, sig, ws, t, x, phi0, dphi0, 0)
+                flow_eq(model, fc, t, x, p, sig, ws[1], ws[6])
+                monitors_at(model, md, p, sig, ws, t, x, ws[1], phi0, dphi0, 0)
                 for r in range(M):
                     armed[r] = phi0[r, 0] > event_atol
                     band = 16 * _xtol(event_tol, t) * abs(dphi0[r, 0]) + event_atol
@@ -494,6 +498,8 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
                                      atol, p, sig)
             hit_n = 0
             hit_rows = np.empty(M, dtype=np.int64)
+            coef[:] = 0.0  # the columns of states outside the active set stay zero
+            act = fc[9]
             while True:
                 ok, t_new, h_abs, h = rk_step(model, method, fc, t, x, fcur, t_stop, h_abs,
                                               max_step, rtol, atol, p, sig, K, y_new, f_new,
@@ -506,7 +512,7 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
                 h_last = t_new - t_old
                 dense_coefficients(model, method, fc, t_old, h, x, y_new, f_new, p, sig, K,
                                    tmp, coef)
-                step = (method, coef, t_old, h, x)
+                step = (method, coef, t_old, h, x, act)
                 nfire, rows, times, graz, armed = scan(
                     model, md, p, sig, ws, step, armed, has_floor, floors, t_old, t_new,
                     samples, max_refine, event_tol, event_atol, stats)
@@ -528,7 +534,7 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
                     t_event = times[0]
                     for i in range(1, nfire):
                         t_event = min(t_event, times[i])
-                    dense_eval(method, coef, t_old, h, x, t_event, tmp)
+                    dense_eval(method, coef, t_old, h, x, act, t_event, tmp)
                     t = t_event
                     x[:] = tmp
                     PT[npt, 0] = t

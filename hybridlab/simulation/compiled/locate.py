@@ -17,9 +17,9 @@ import math
 import numba
 import numpy as np
 
-from hybridlab.simulation.compiled.integrate import dense_eval
+from hybridlab.simulation.compiled.integrate import RK45, dense_eval
 from hybridlab.simulation.compiled.signatures import ptr
-from hybridlab.simulation.compiled.sliding import equivalent, flow_sliding
+from hybridlab.simulation.compiled.sliding import equivalent, equivalent_signs
 
 __all__ = ["monitors_at", "monitor_value", "sample_step", "scan", "GUARD", "INVARIANT", "SWITCH",
            "EXIT"]
@@ -39,20 +39,19 @@ def _position(sl, k):
 
 
 @numba.njit(cache=True, inline="always")
-def monitors_at(model, md, p, sig, ws, t, x, phi, dphi, col):
+def monitors_at(model, md, p, sig, ws, t, x, f, phi, dphi, col):
     """Every monitor's value and slope at ``(t, x)`` into column ``col``.
 
-    The slope of a sliding exit (``1 - |sigma_eq|``) is left at zero here;
-    :func:`_batch` replaces it by finite differences over the batch, as the
-    reference engine does.
+    ``f`` is the state's time derivative the slopes are taken along: the
+    flow at the start of a segment, the derivative of the dense output at
+    the samples of a step (:func:`_batch`). While switches slide, the
+    equivalent signs must be in ``ws[6]`` already. The slope of a sliding
+    exit (``1 - |sigma_eq|``) is left at zero here; :func:`_batch` replaces
+    it by finite differences over the batch, as the reference engine does.
     """
     fc, cg, mk, mref, mstart, mlen, nc = md
-    xs, f, cv, cd, sv, sd, eqv = ws
+    xs, _, cv, cd, sv, sd, eqv = ws
     sg, m = fc[1], fc[4]
-    if fc[5].size == 0:
-        model(OP_FLOW, fc[0], t, ptr(x), ptr(p), ptr(sig), ptr(fc[6]), ptr(f))
-    else:  # the sliding flow inlined: this runs at every sample point
-        flow_sliding(model, fc[7], m, fc[5], fc[6], t, x, p, sig, f, eqv)
     # values and Lie derivatives in one call each: cv = [g | dg/dt], sv = [s | ds/dt]
     if cg >= 0:
         model(OP_COND_BOTH, cg, t, ptr(x), ptr(p), ptr(sig), ptr(f), ptr(cv))
@@ -86,8 +85,8 @@ def monitor_value(model, md, p, sig, ws, step, r, t):
     xs, f, cv, cd, sv, sd, eqv = ws
     sg = fc[1]
     dummy = fc[6]
-    method, coef, t_old, h, y_old = step
-    dense_eval(method, coef, t_old, h, y_old, t, xs)
+    method, coef, t_old, h, y_old, act = step
+    dense_eval(method, coef, t_old, h, y_old, act, t, xs)
     kind = mk[r]
     if kind == SWITCH:
         model(OP_SWITCH, sg, t, ptr(xs), ptr(p), ptr(sig), ptr(dummy), ptr(sv))
@@ -107,13 +106,86 @@ def monitor_value(model, md, p, sig, ws, step, r, t):
 
 @numba.njit(cache=True)
 def _batch(model, md, p, sig, ws, step, times, T, PHI, DPHI, n0):
-    method, coef, t_old, h, y_old = step
-    xs = ws[0]
-    mk = md[2]
+    """Monitor values and slopes at ``times`` of the step into columns ``n0...``.
+
+    This is the sampler's inner loop, so it is written out by hand with every
+    array bound once before the loop: binding an array inside the loop (a
+    tuple unpacked, an inlined call's parameters) costs a reference-count
+    pair per point that numba cannot prune. It computes what
+    :func:`monitors_at` does, along the dense output's own derivative.
+    """
+    method, coef, t_old, h, y_old, act = step
+    fc, cg, mk, mref, mstart, mlen, nc = md
+    xs, xd, cv, _, sv, _, eqv = ws
+    sg, m, pg, sl, W = fc[1], fc[4], fc[7], fc[5], fc[6]
+    n = y_old.size
+    ns = sl.size
+    nm = mk.size
+    nco = coef.shape[0]
+    # where each sliding exit's switch sits in the sliding set
+    pos = np.zeros(nm, dtype=np.int64)
+    for r in range(nm):
+        if mk[r] == EXIT:
+            for a in range(ns):
+                if sl[a] == mref[r]:
+                    pos[r] = a
     for i in range(times.size):
-        dense_eval(method, coef, t_old, h, y_old, times[i], xs)
-        T[n0 + i] = times[i]
-        monitors_at(model, md, p, sig, ws, times[i], xs, PHI, DPHI, n0 + i)
+        t = times[i]
+        T[n0 + i] = t
+        # the interpolant (integrate.dense_eval) and its derivative, written out
+        x = (t - t_old) / h
+        for q in range(n):
+            xs[q] = y_old[q]
+            xd[q] = 0.0
+        for a in range(act.size):
+            q = act[a]
+            acc = 0.0
+            dacc = 0.0
+            if method == RK45:
+                pw = 1.0
+                for j in range(nco):
+                    dacc += (j + 1) * coef[j, q] * pw
+                    pw *= x
+                    acc += coef[j, q] * pw
+                xs[q] = h * acc + y_old[q]
+                xd[q] = dacc
+            else:
+                for k in range(nco):
+                    acc += coef[nco - 1 - k, q]
+                    if k % 2 == 0:
+                        dacc = dacc * x + acc
+                        acc *= x
+                    else:
+                        dacc = dacc * (1 - x) - acc
+                        acc *= 1 - x
+                xs[q] = acc + y_old[q]
+                xd[q] = dacc / h
+        if ns:
+            equivalent_signs(model, pg, m, sl, act, W, t, xs, p, sig, eqv)
+        if cg >= 0:
+            model(OP_COND_BOTH, cg, t, ptr(xs), ptr(p), ptr(sig), ptr(xd), ptr(cv))
+        if sg >= 0:
+            model(OP_SWITCH_BOTH, sg, t, ptr(xs), ptr(p), ptr(sig), ptr(xd), ptr(sv))
+        col = n0 + i
+        for r in range(nm):
+            kind = mk[r]
+            if kind == GUARD:
+                b = mstart[r]
+                for q in range(mstart[r] + 1, mstart[r] + mlen[r]):
+                    if cv[q] < cv[b]:
+                        b = q
+                PHI[r, col] = -cv[b]
+                DPHI[r, col] = -cv[nc + b]
+            elif kind == INVARIANT:
+                PHI[r, col] = cv[mstart[r]]
+                DPHI[r, col] = cv[nc + mstart[r]]
+            elif kind == SWITCH:
+                k = mref[r]
+                PHI[r, col] = sig[k] * sv[k]
+                DPHI[r, col] = sig[k] * sv[m + k]
+            else:
+                PHI[r, col] = 1.0 - abs(eqv[pos[r]])
+                DPHI[r, col] = 0.0
     nt = times.size
     if nt < 2:
         return
@@ -266,6 +338,22 @@ def _extremes(h, fa, fb, da, db):
         if v > v_max:
             v_max, s_max = v, si
     return v_min, s_min, v_max, s_max
+
+
+@numba.njit(cache=True, inline="always")
+def _above(h, fa, fb, da, db, tol):
+    """Whether the cubic of :func:`_extremes` stays above ``tol`` on the whole interval.
+
+    Its Bernstein control points are ``fa, fa + h da / 3, fb - h db / 3, fb``
+    and the cubic lies in their convex hull; the margin covers the rounding
+    of :func:`_extremes`, so this never skips an interval whose computed
+    minimum would reach ``tol``. Most monitors are far from zero in most
+    steps, and this spares them the cubic's roots.
+    """
+    b1 = fa + h * da / 3.0
+    b2 = fb - h * db / 3.0
+    margin = 16.0 * _EPS * (abs(fa) + abs(fb) + abs(h * da) + abs(h * db))
+    return min(fa, fb, b1, b2) - margin > tol
 
 
 @numba.njit(cache=True)
@@ -530,6 +618,8 @@ def scan(model, md, p, sig, ws, step, armed, has_floor, floors, t0, t1, samples,
         rising = False
         for k in range(K):
             h = tau[k + 1] - tau[k]
+            if armed[r] and _above(h, phi[r, k], phi[r, k + 1], dphi[r, k], dphi[r, k + 1], tol):
+                continue  # the cubic cannot come down to tol here: no candidate
             lv, _, hv, _ = _extremes(h, phi[r, k], phi[r, k + 1], dphi[r, k], dphi[r, k + 1])
             lower = min(phi[r, k], phi[r, k + 1], lv)
             upper = max(phi[r, k], phi[r, k + 1], hv)

@@ -1,13 +1,15 @@
 """Filippov sliding in numba: a port of ``simulation/sliding.py`` and the engine's sign logic.
 
-A *flow context* ``fc = (fg, sg, gg, dg, m, sl, W, pg, free)`` describes the
+A *flow context* ``fc = (fg, sg, gg, dg, m, sl, W, pg, free, act)`` describes the
 current flow: the model groups of the flow, the switching functions, their
 state gradient and the flow's sigma-Jacobian, the mode's number of switches
 ``m``, the sliding switches ``sl`` (an index array, usually empty), a
 workspace ``W`` (see :func:`workspace`), the group of the fused sliding op
-(flow, switch Lie derivatives, gradient and sigma-Jacobian in one call) and
-whether the switching functions are free of the signs. With ``sl`` empty every function here is a
-plain flow call; while switches slide:
+(flow, switch Lie derivatives, gradient and sigma-Jacobian in one call),
+whether the switching functions are free of the signs, and the mode's
+*active* states (an index array: those whose flow is not identically zero or
+that a switching function reads; the integrator combines only these). With
+``sl`` empty every function here is a plain flow call; while switches slide:
 
 * :func:`equivalent` solves ``grad s_S . (f0 + F_sigma sigma_S) = 0`` for the
   equivalent signs (the reference's ``equivalent_sigma``);
@@ -35,9 +37,9 @@ import numpy as np
 
 from hybridlab.simulation.compiled.signatures import ptr, ptr_at
 
-__all__ = ["workspace", "flag_index", "equivalent", "flow_sliding", "flow_eq", "rhs",
-           "enter_mode", "resolve", "update_switches", "active_indices", "OK", "NOT_AFFINE",
-           "SINGULAR"]
+__all__ = ["workspace", "flag_index", "equivalent", "equivalent_signs", "flow_sliding",
+           "flow_eq", "rhs", "enter_mode", "resolve", "update_switches", "active_indices", "OK",
+           "NOT_AFFINE", "SINGULAR"]
 
 OP_FLOW, OP_SWITCH, OP_SWITCH_LIE, OP_SWITCH_GRAD, OP_FLOW_DSIGMA, OP_SLIDE_PARTS = \
     0, 3, 4, 8, 9, 10
@@ -107,7 +109,8 @@ def _solve(W, oa, ob, k, out, oo):
 
 
 @numba.njit(cache=True, inline="always")
-def _equivalent(model, fg_p, m, sl, W, t, x, p, sig, eq):
+def equivalent_signs(model, fg_p, m, sl, act, W, t, x, p, sig, eq):
+    """:func:`equivalent` on the unpacked flow context (for loops that bind it once)."""
     n = x.size
     o_sig, o_base, _, _, o_a, o_b, _, o_flag, o_parts, _ = _layout(n, sig.size)
     k = sl.size
@@ -121,7 +124,8 @@ def _equivalent(model, fg_p, m, sl, W, t, x, p, sig, eq):
     for a in range(k):
         for c in range(k):
             acc = 0.0
-            for i in range(n):
+            for q in range(act.size):  # grad s and F_sigma vanish outside the active set
+                i = act[q]
                 acc += W[og + sl[a] * n + i] * W[od + i * m + sl[c]]
             W[o_a + a * k + c] = acc
         W[o_b + a] = -W[o_parts + n + sl[a]]
@@ -131,19 +135,19 @@ def _equivalent(model, fg_p, m, sl, W, t, x, p, sig, eq):
     return True
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def equivalent(model, fc, t, x, p, sig, eq):
     """Equivalent signs of the sliding switches ``fc[5]`` at ``(t, x)`` into ``eq``.
 
     Leaves ``[f0 | ds/dt | grad s | F_sigma]`` at ``sigma_S = 0`` in the workspace.
     """
-    return _equivalent(model, fc[7], fc[4], fc[5], fc[6], t, x, p, sig, eq)
+    return equivalent_signs(model, fc[7], fc[4], fc[5], fc[9], fc[6], t, x, p, sig, eq)
 
 
 @numba.njit(cache=True, inline="always")
-def flow_sliding(model, pg, m, sl, W, t, x, p, sig, out, eq):
+def flow_sliding(model, pg, m, sl, act, W, t, x, p, sig, out, eq):
     """The flow with the equivalent signs of the sliding switches ``sl`` (see :func:`flow_eq`)."""
-    ok = _equivalent(model, pg, m, sl, W, t, x, p, sig, eq)
+    ok = equivalent_signs(model, pg, m, sl, act, W, t, x, p, sig, eq)
     n = x.size
     o_sig, o_parts = n, _layout(n, sig.size)[8]
     for i in range(sig.size):
@@ -151,7 +155,10 @@ def flow_sliding(model, pg, m, sl, W, t, x, p, sig, out, eq):
     for a in range(sl.size):
         W[o_sig + sl[a]] = eq[a]
     od = o_parts + n + m + m * n
-    for i in range(n):  # affine in sigma: f(sigma) = f(sigma_S = 0) + F_sigma sigma_S
+    for i in range(n):
+        out[i] = W[o_parts + i]
+    for q in range(act.size):  # affine in sigma: f(sigma) = f(sigma_S = 0) + F_sigma sigma_S
+        i = act[q]
         acc = W[o_parts + i]
         for a in range(sl.size):
             acc += W[od + i * m + sl[a]] * eq[a]
@@ -161,7 +168,7 @@ def flow_sliding(model, pg, m, sl, W, t, x, p, sig, out, eq):
 
 @numba.njit(cache=True)
 def _flow_eq_sliding(model, fc, t, x, p, sig, out, eq):
-    return flow_sliding(model, fc[7], fc[4], fc[5], fc[6], t, x, p, sig, out, eq)
+    return flow_sliding(model, fc[7], fc[4], fc[5], fc[9], fc[6], t, x, p, sig, out, eq)
 
 
 @numba.njit(cache=True, inline="always")
@@ -173,13 +180,14 @@ def flow_eq(model, fc, t, x, p, sig, out, eq):
     return _flow_eq_sliding(model, fc, t, x, p, sig, out, eq)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _rhs_sliding(model, fc, t, x, p, sig, out):
-    m, sl, W = fc[4], fc[5], fc[6]
+    m, sl, W, act = fc[4], fc[5], fc[6], fc[9]
     n = x.size
     o_sig, _, o_lie, o_grad, o_a, o_b, o_sol, o_flag, o_parts, _ = _layout(n, sig.size)
-    flow_sliding(model, fc[7], m, sl, W, t, x, p, sig, out, W[o_sol:o_sol + sig.size])
-    # remove the rounding-level drift off the sliding surfaces (as the reference does)
+    flow_sliding(model, fc[7], m, sl, act, W, t, x, p, sig, out, W[o_sol:o_sol + sig.size])
+    # remove the rounding-level drift off the sliding surfaces (as the reference does);
+    # the gradients vanish outside the active set (it holds every state a switch reads)
     k = sl.size
     if fc[8]:
         # switching functions free of sigma: gradient and ds/dt as at sigma_S = 0
@@ -188,6 +196,8 @@ def _rhs_sliding(model, fc, t, x, p, sig, out):
             acc = W[o_parts + n + sl[a]]
             for i in range(n):
                 W[o_grad + sl[a] * n + i] = W[og + sl[a] * n + i]
+            for q in range(act.size):
+                i = act[q]
                 acc += W[og + sl[a] * n + i] * (out[i] - W[o_parts + i])
             W[o_lie + sl[a]] = acc
     else:
@@ -198,14 +208,16 @@ def _rhs_sliding(model, fc, t, x, p, sig, out):
     for a in range(k):
         for c in range(k):
             acc = 0.0
-            for i in range(n):
+            for q in range(act.size):
+                i = act[q]
                 acc += W[o_grad + sl[a] * n + i] * W[o_grad + sl[c] * n + i]
             W[o_a + a * k + c] = acc
         W[o_b + a] = W[o_lie + sl[a]]
     if not _solve(W, o_a, o_b, k, W, o_sol):
         W[o_flag] = 1.0
         return
-    for i in range(n):
+    for q in range(act.size):
+        i = act[q]
         acc = 0.0
         for a in range(k):
             acc += W[o_grad + sl[a] * n + i] * W[o_sol + a]
@@ -299,7 +311,8 @@ def resolve(model, fc, affine, t, x, p, sig, at_surface, forced, forced_value, s
             return NOT_AFFINE
         for a in range(idx.size):
             sig[idx[a]] = 0.0
-        if not equivalent(model, (fg, sg, gg, dg, m, idx, W, fc[7], fc[8]), t, x, p, sig, eq):
+        sub = (fg, sg, gg, dg, m, idx, W, fc[7], fc[8], fc[9])
+        if not equivalent(model, sub, t, x, p, sig, eq):
             return SINGULAR
         outside = False
         for a in range(idx.size):
