@@ -333,3 +333,28 @@ def test_compiled_tables_equal_the_eagerly_built_events_and_segments(models_dir,
     assert back.events == events and back.as_dict() == result.as_dict()
     ts = np.concatenate(grid)
     np.testing.assert_array_equal(back(ts), result(ts))
+
+
+def test_compiled_events_are_read_from_the_records_only_when_needed(models_dir, monkeypatch):
+    pytest.importorskip("numba")
+    from hybridlab.simulation.compiled import backend
+
+    calls = []
+    event_columns = backend._event_columns
+
+    def spy(*args):
+        calls.append(args)
+        return event_columns(*args)
+
+    monkeypatch.setattr(backend, "_event_columns", spy)
+    result = hybridlab.simulate(models_dir / "thermostat.toml", t_end=30.0, backend="compiled")
+    result(np.linspace(0.0, 30.0, 7))
+    assert len(result.events) == 10 and result.final.j == 10 and result.t.size
+    assert calls == []  # states, segments, the final state and len need no event
+    assert result.jumps.transition[:2] == ("turn_off", "turn_on")
+    assert result.events[-1].t == result.events.t[-1] and len(result.events.pre) == 10
+    assert len(calls) == 1
+    back = pickle.loads(pickle.dumps(dataclasses.replace(result, compiled=None)))
+    assert back.events == result.events and len(calls) == 1
+    fresh = hybridlab.simulate(models_dir / "thermostat.toml", t_end=30.0, backend="compiled")
+    assert pickle.loads(pickle.dumps(fresh.events)) == result.events  # resolved when pickled

@@ -298,27 +298,32 @@ class _Table(Sequence):
 
 
 class _EventRecords(_Records):
-    """Events given as columns; an :class:`Event` is made when first read."""
+    """Events given as columns (or a function that returns them when first needed); an
+    :class:`Event` is made when first read."""
 
-    __slots__ = ("names", "t", "j", "transition", "labels", "source", "target", "modes",
-                 "kind", "kinds", "grazing", "pre", "post", "_made")
+    __slots__ = ("names", "_columns", "_made")
     _TEXT = {"transition": "labels", "source": "modes", "target": "modes", "kind": "kinds"}
 
-    def __init__(self, names: tuple[str, ...], columns: dict[str, Any]) -> None:
-        self.names = names
-        for name, value in columns.items():
-            setattr(self, name, value)
-        self._made: list[Event | None] = [None] * len(self.t)
+    def __init__(self, names: tuple[str, ...], size: int,
+                 columns: Mapping[str, Any] | Callable[[], Mapping[str, Any]]) -> None:
+        self.names, self._columns = names, columns
+        self._made: list[Event | None] = [None] * size
+
+    @property
+    def columns(self) -> Mapping[str, Any]:
+        columns = self._columns
+        if callable(columns):
+            columns = self._columns = columns()
+        return columns
 
     def _make(self, rows: np.ndarray) -> None:
-        names, modes, labels, kinds = self.names, self.modes, self.labels, self.kinds
+        c, names = self.columns, self.names
+        modes, labels, kinds = c["modes"], c["labels"], c["kinds"]
         made, new = self._made, object.__new__
         for r, t, j, label, src, tgt, kind, grazing, pre, post in zip(
-                rows.tolist(), self.t[rows].tolist(), self.j[rows].tolist(),
-                self.transition[rows].tolist(), self.source[rows].tolist(),
-                self.target[rows].tolist(), self.kind[rows].tolist(),
-                self.grazing[rows].tolist(), self.pre[rows].tolist(), self.post[rows].tolist(),
-                strict=True):
+                rows.tolist(), *(c[name][rows].tolist() for name in (
+                    "t", "j", "transition", "source", "target", "kind", "grazing", "pre",
+                    "post")), strict=True):
             event = new(Event)  # as _new, inlined: one per event
             event.__dict__.update(t=t, j=j, transition=labels[label], source=modes[src],
                                   target=modes[tgt], pre=dict(zip(names, pre, strict=True)),
@@ -327,16 +332,18 @@ class _EventRecords(_Records):
             made[r] = event
 
     def column(self, name: str) -> Any:
+        c = self.columns
         if name in self._TEXT:
-            table = getattr(self, self._TEXT[name])
-            return tuple(table[c] for c in getattr(self, name).tolist())
-        return getattr(self, name)
+            table = c[self._TEXT[name]]
+            return tuple(table[k] for k in c[name].tolist())
+        return c[name]
 
     def codes(self, name: str) -> tuple[np.ndarray, tuple[str, ...]]:
-        return getattr(self, name), getattr(self, self._TEXT[name])
+        c = self.columns
+        return c[name], c[self._TEXT[name]]
 
     def __getstate__(self) -> tuple:  # the columns only: events are made again on demand
-        return self.names, {n: getattr(self, n) for n in self.__slots__[1:-1]}
+        return self.names, len(self._made), dict(self.columns)
 
     def __setstate__(self, state: tuple) -> None:
         self.__init__(*state)
@@ -432,7 +439,35 @@ post={'x': 0.0}, kind='jump', grazing=False)
         columns = {"t": t, "j": j, "transition": transition, "labels": tuple(labels),
                    "source": source, "target": target, "modes": tuple(modes), "kind": kind,
                    "kinds": tuple(kinds), "grazing": grazing, "pre": pre, "post": post}
-        return cls(_EventRecords(tuple(state_names), columns))
+        return cls(_EventRecords(tuple(state_names), len(t), columns))
+
+    @classmethod
+    def deferred(cls, state_names: Sequence[str], size: int,
+                 columns: Callable[[], Mapping[str, Any]]) -> EventTable:
+        """A table of ``size`` events whose columns ``columns()`` returns when first needed.
+
+        ``columns()`` returns the keyword arguments of :meth:`from_columns`
+        (``labels``, ``modes`` and ``kinds`` as tuples); it is called at most
+        once, by the first read of an event or a column, so a run whose events
+        are never read never pays for them. ``len`` does not call it.
+
+        Examples
+        --------
+        >>> calls = []
+        >>> def columns():
+        ...     calls.append(1)
+        ...     return {"t": np.array([1.0]), "j": np.array([1]), "transition": np.array([0]),
+        ...             "labels": ("reset",), "source": np.array([0]), "target": np.array([0]),
+        ...             "modes": ("on",), "kind": np.array([0]), "kinds": ("jump",),
+        ...             "grazing": np.array([False]), "pre": np.array([[2.0]]),
+        ...             "post": np.array([[0.0]])}
+        >>> table = EventTable.deferred(("x",), 1, columns)
+        >>> len(table), len(calls)
+        (1, 0)
+        >>> table.t, table[0].post, len(calls)
+        (array([1.]), {'x': 0.0}, 1)
+        """
+        return cls(_EventRecords(tuple(state_names), size, columns))
 
     @property
     def state_names(self) -> tuple[str, ...]:

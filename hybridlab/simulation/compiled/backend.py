@@ -26,6 +26,7 @@ import weakref
 from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import partial
 from itertools import accumulate, chain
 from pathlib import Path
 from types import ModuleType
@@ -366,28 +367,34 @@ class _SegmentSteps:
         return StepInterpolants(self.method, self.n, self.rows[s0:s0 + int(self.count[k])])
 
 
-def _records(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, EV: np.ndarray,
-             PT: np.ndarray, ST: np.ndarray, SG: np.ndarray, last: tuple | None = None
-             ) -> tuple[EventTable, SegmentTable]:
-    """Events and segments from the kernel's records, as tables that make each object when read.
-
-    ``last`` is where the run ended, ``(t, x, mode index, j)``; a one-point
-    segment is added there unless the last segment ends there.
-    """
-    names = compiled.state_names
-    n = len(names)
+def _event_columns(EV: np.ndarray, n: int, prep: Prepared) -> dict:
+    """The columns of :meth:`EventTable.from_columns` from the kernel's event records."""
     meta = EV[:, 1:6].astype(np.int64)
     which, source, kind = meta[:, 1], meta[:, 2], meta[:, 4]
     # label codes into (transition names..., every mode's switch texts...)
     switches = prep.switch_labels
     offsets = np.fromiter(accumulate(map(len, switches[:-1]), initial=len(prep.jump_labels)),
                           np.int64, len(switches))
-    labels = prep.jump_labels + tuple(chain.from_iterable(switches))
-    events = EventTable.from_columns(
-        names, t=EV[:, 0], j=meta[:, 0], transition=np.where(kind == 0, which,
-                                                                 offsets[source] + which),
-        labels=labels, source=source, target=meta[:, 3], modes=prep.mode_names, kind=kind,
-        kinds=_KINDS, grazing=EV[:, 6] != 0, pre=EV[:, 7:7 + n], post=EV[:, 7 + n:])
+    return {"t": EV[:, 0], "j": meta[:, 0],
+            "transition": np.where(kind == 0, which, offsets[source] + which),
+            "labels": prep.jump_labels + tuple(chain.from_iterable(switches)),
+            "source": source, "target": meta[:, 3], "modes": prep.mode_names, "kind": kind,
+            "kinds": _KINDS, "grazing": EV[:, 6] != 0, "pre": EV[:, 7:7 + n],
+            "post": EV[:, 7 + n:]}
+
+
+def _records(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, EV: np.ndarray,
+             PT: np.ndarray, ST: np.ndarray, SG: np.ndarray, last: tuple | None = None
+             ) -> tuple[EventTable, SegmentTable]:
+    """Events and segments from the kernel's records, as tables that make each object when read.
+
+    The events' columns are read from ``EV`` only when first needed. ``last``
+    is where the run ended, ``(t, x, mode index, j)``; a one-point segment is
+    added there unless the last segment ends there.
+    """
+    names = compiled.state_names
+    n = len(names)
+    events = EventTable.deferred(names, len(EV), partial(_event_columns, EV, n, prep))
     m = len(PT)
     mode, seg_j, first, count = SG[:, 0], SG[:, 1], SG[:, 2], SG[:, 3]
     extra = last is not None and bool(not len(SG) or PT[first[-1] + count[-1] - 1, 0] < last[0]
