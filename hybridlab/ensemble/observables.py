@@ -7,7 +7,10 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from hybridlab.ensemble.errors import SweepError
+from hybridlab.simulation.tables import EventTable
 
 __all__ = ["REDUCTIONS", "Count", "Observable", "parse_counts", "parse_observables"]
 
@@ -101,15 +104,16 @@ class Count:
         return text + (f"@{self.after}" if self.after else "")
 
     def evaluate(self, jumps: Sequence[Any]) -> int | None:
-        """The count over a result's jump log."""
+        """The count over a result's jump log (read by columns: no event object is made)."""
+        if not isinstance(jumps, EventTable):
+            jumps = EventTable.from_events(jumps, ())
         start = -math.inf
         if self.after is not None:
-            first = next((e.t for e in jumps if e.transition == self.after), None)
-            if first is None:
+            first = jumps.where(transition=self.after).t
+            if not first.size:
                 return None
-            start = first
-        names = set(self.transitions)
-        return sum(1 for e in jumps if e.transition in names and e.t > start)
+            start = first[0]
+        return int(np.count_nonzero(jumps.where(transition=self.transitions).t > start))
 
 
 def _one_observable(name: str, spec: Any) -> Observable:

@@ -12,6 +12,8 @@ from typing import Any
 
 import numpy as np
 
+from hybridlab.simulation.tables import Event, EventTable, Segment, SegmentTable
+
 __all__ = ["Status", "Event", "Segment", "FinalState", "SimulationResult"]
 
 
@@ -35,82 +37,6 @@ class Status(enum.Enum):
 
 
 @dataclass(frozen=True)
-class Event:
-    """One logged event.
-
-    Attributes
-    ----------
-    t : float
-        Event time.
-    j : int
-        Jump counter after the event (jumps increment it; switching-surface
-        events of a discontinuous flow do not).
-    transition : str
-        Transition name, or the switching function for flow events.
-    source, target : str
-        Modes before and after.
-    pre, post : mapping of str to float
-        State before and after the event.
-    kind : str
-        ``"jump"`` (a transition fired), ``"crossing"`` (a discontinuity of the
-        flow was crossed), ``"slide_start"`` or ``"slide_end"`` (Filippov sliding).
-    grazing : bool
-        The guard was reached tangentially.
-    """
-
-    t: float
-    j: int
-    transition: str
-    source: str
-    target: str
-    pre: Mapping[str, float]
-    post: Mapping[str, float]
-    kind: str = "jump"
-    grazing: bool = False
-
-    def as_dict(self) -> dict[str, Any]:
-        """A JSON-ready mapping."""
-        return {"t": self.t, "j": self.j, "transition": self.transition, "source": self.source,
-                "target": self.target, "kind": self.kind, "grazing": self.grazing,
-                "pre": dict(self.pre), "post": dict(self.post)}
-
-
-@dataclass(frozen=True)
-class Segment:
-    """A piece of flow in one mode between two jumps (or a solver restart)."""
-
-    mode: str
-    j: int
-    t: np.ndarray
-    y: np.ndarray
-    interpolants: tuple[Any, ...] = field(repr=False, default=())
-
-    @property
-    def t_start(self) -> float:
-        return float(self.t[0])
-
-    @property
-    def t_end(self) -> float:
-        return float(self.t[-1])
-
-    def __call__(self, t: float | np.ndarray) -> np.ndarray:
-        """Dense state inside the segment; shape ``(n,)`` or ``(n, k)``."""
-        ts = np.atleast_1d(np.asarray(t, dtype=float))
-        out = np.empty((self.y.shape[0], ts.size))
-        if len(self.interpolants) == 0 or len(self.t) < 2:
-            out[:] = self.y[:, :1]
-        else:
-            idx = np.clip(np.searchsorted(self.t, ts, side="left") - 1, 0, len(self.t) - 2)
-            # one vectorised call per integrator step
-            bounds = np.flatnonzero(np.diff(idx)) + 1
-            for chunk in np.split(np.arange(ts.size), bounds):
-                if chunk.size:
-                    out[:, chunk] = self.interpolants[idx[chunk[0]]](ts[chunk]).reshape(
-                        self.y.shape[0], chunk.size)
-        return out[:, 0] if np.ndim(t) == 0 else out
-
-
-@dataclass(frozen=True)
 class FinalState:
     """Where a simulation ended."""
 
@@ -130,10 +56,13 @@ class SimulationResult:
         How the run ended; ``status.ok`` is ``True`` for a complete run.
     message : str
         What happened, specific to this run.
-    events : tuple of Event
-        The event log in order.
-    segments : tuple of Segment
-        The flow pieces, with dense interpolants.
+    events : EventTable
+        The event log in order: a sequence of :class:`Event` that behaves like
+        a tuple, with columns such as ``events.t`` (any sequence of events
+        given here is wrapped in one).
+    segments : SegmentTable
+        The flow pieces, with dense interpolants (a tuple-like sequence of
+        :class:`Segment`, likewise).
     final : FinalState
         Time, jump count, mode and state at the end.
     state_names : tuple of str
@@ -145,14 +74,22 @@ class SimulationResult:
 
     status: Status
     message: str
-    events: tuple[Event, ...]
-    segments: tuple[Segment, ...]
+    events: EventTable
+    segments: SegmentTable
     final: FinalState
     state_names: tuple[str, ...]
     zeno_time: float | None = None
     stats: Mapping[str, int] = field(default_factory=dict)
     parameters: Mapping[str, float] = field(default_factory=dict)
     compiled: Any = field(default=None, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.events, EventTable):
+            object.__setattr__(self, "events",
+                               EventTable.from_events(self.events, self.state_names))
+        if not isinstance(self.segments, SegmentTable):
+            object.__setattr__(self, "segments",
+                               SegmentTable.from_segments(self.segments, len(self.state_names)))
 
     def observe(self, expressions: str | Sequence[str],
                 t: float | Sequence[float] | np.ndarray | None = None) -> np.ndarray:
@@ -182,47 +119,52 @@ class SimulationResult:
 
     # ----- views ---------------------------------------------------------------------------
     @property
-    def jumps(self) -> tuple[Event, ...]:
-        """Only the events where a transition fired."""
-        return tuple(e for e in self.events if e.kind == "jump")
+    def jumps(self) -> EventTable:
+        """Only the events where a transition fired (a table of the same event objects)."""
+        return self.events.where(kind="jump")
 
     @property
     def t(self) -> np.ndarray:
         """Times of all stored points (integrator steps and both sides of every event)."""
-        return np.concatenate([s.t for s in self.segments]) if self.segments else np.empty(0)
+        return self.segments.t
 
     @property
     def y(self) -> np.ndarray:
         """States at :attr:`t`, shape ``(n, k)``."""
-        if not self.segments:
-            return np.empty((len(self.state_names), 0))
-        return np.concatenate([s.y for s in self.segments], axis=1)
+        return self.segments.y
 
     @property
     def j(self) -> np.ndarray:
         """Jump counter at :attr:`t` (hybrid time is the pair ``(t, j)``)."""
-        return np.concatenate([np.full(s.t.size, s.j) for s in self.segments]).astype(int)
+        return np.repeat(self.segments.j, self.segments.n_points).astype(int, copy=False)
 
     @property
     def modes(self) -> list[str]:
         """Mode at each point of :attr:`t`."""
-        return [s.mode for s in self.segments for _ in range(s.t.size)]
+        segments = self.segments
+        return [m for m, k in zip(segments.mode, segments.n_points.tolist(), strict=True)
+                for _ in range(k)]
 
     def mode_trace(self) -> list[tuple[float, int, str]]:
         """``(t_start, j, mode)`` for every segment, in order."""
-        return [(s.t_start, s.j, s.mode) for s in self.segments]
+        segments = self.segments
+        return list(zip(segments.t_start.tolist(), segments.j.tolist(), segments.mode,
+                        strict=True))
 
     def state(self, name: str) -> np.ndarray:
         """The stored trajectory of one state, aligned with :attr:`t`."""
         return self.y[self.state_names.index(name)]
 
     def _segment_at(self, t: float, j: int | None) -> Segment:
-        candidates = [s for s in self.segments
-                      if s.t_start <= t <= s.t_end and (j is None or s.j == j)]
-        if not candidates:
-            span = (self.segments[0].t_start, self.segments[-1].t_end) if self.segments else ()
+        segments = self.segments
+        starts, ends = segments.t_start, segments.t_end
+        inside = (starts <= t) & (t <= ends)
+        if j is not None:
+            inside &= segments.j == j
+        if not inside.any():
+            span = (float(starts[0]), float(ends[-1])) if len(segments) else ()
             raise ValueError(f"t={t!r} (j={j!r}) is outside the simulated hybrid time {span}")
-        return candidates[-1]
+        return segments[int(np.flatnonzero(inside)[-1])]
 
     def __call__(self, t: float | Sequence[float] | np.ndarray, j: int | None = None) -> np.ndarray:
         """Dense state at time(s) ``t``; at a jump instant the post-jump state unless ``j``.
@@ -244,14 +186,13 @@ class SimulationResult:
 
     def segment_index(self, t: np.ndarray) -> np.ndarray:
         """Index of the segment holding each time (the last one at a jump instant)."""
-        starts = np.array([s.t_start for s in self.segments])
-        ends = np.array([s.t_end for s in self.segments])
+        starts, ends = self.segments.t_start, self.segments.t_end
         ts = np.asarray(t, dtype=float)
         which = np.searchsorted(starts, ts, side="right") - 1
         bad = (which < 0) | (ts > ends[np.clip(which, 0, None)])
         if np.any(bad):
             first = float(ts[np.argmax(bad)])
-            span = (self.segments[0].t_start, self.segments[-1].t_end)
+            span = (float(starts[0]), float(ends[-1]))
             raise ValueError(f"t={first!r} is outside the simulated hybrid time {span}")
         return which
 

@@ -26,6 +26,8 @@ import weakref
 from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import partial
+from itertools import accumulate, chain
 from pathlib import Path
 from types import ModuleType
 
@@ -54,7 +56,8 @@ from hybridlab.simulation.compiled.kernel import (
 )
 from hybridlab.simulation.location import Trigger
 from hybridlab.simulation.options import SimulationOptions
-from hybridlab.simulation.result import Event, FinalState, Segment, SimulationResult, Status
+from hybridlab.simulation.result import FinalState, SimulationResult, Status
+from hybridlab.simulation.tables import EventTable, SegmentTable
 from hybridlab.simulation.zeno import ZenoVerdict
 from hybridlab.symbolic.compile import CompiledModel
 
@@ -371,48 +374,65 @@ def _hand_off(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, out
 _KINDS = ("jump", "crossing", "slide_start", "slide_end")
 
 
-def _new(cls: type, **fields: object) -> object:
-    """A frozen dataclass instance from its fields, without running ``__init__``.
+class _SegmentSteps:
+    """The dense output of each kernel segment, made when the segment is read."""
 
-    ``Event`` and ``Segment`` have no ``__post_init__``, so this is the object
-    their ``__init__`` makes, at half the cost (a run builds one per event and segment).
-    """
-    obj = object.__new__(cls)
-    obj.__dict__.update(fields)
-    return obj
+    __slots__ = ("method", "n", "rows", "first", "count")
+
+    def __init__(self, method: int, n: int, rows: np.ndarray, first: np.ndarray,
+                 count: np.ndarray) -> None:
+        self.method, self.n, self.rows, self.first, self.count = method, n, rows, first, count
+
+    def __getitem__(self, k: int) -> StepInterpolants | tuple:
+        if k >= len(self.first):  # the one-point segment _records adds at the end of a run
+            return ()
+        s0 = int(self.first[k])
+        return StepInterpolants(self.method, self.n, self.rows[s0:s0 + int(self.count[k])])
+
+
+def _event_columns(EV: np.ndarray, n: int, prep: Prepared) -> dict:
+    """The columns of :meth:`EventTable.from_columns` from the kernel's event records."""
+    meta = EV[:, 1:6].astype(np.int64)
+    which, source, kind = meta[:, 1], meta[:, 2], meta[:, 4]
+    # label codes into (transition names..., every mode's switch texts...)
+    switches = prep.switch_labels
+    offsets = np.fromiter(accumulate(map(len, switches[:-1]), initial=len(prep.jump_labels)),
+                          np.int64, len(switches))
+    return {"t": EV[:, 0], "j": meta[:, 0],
+            "transition": np.where(kind == 0, which, offsets[source] + which),
+            "labels": prep.jump_labels + tuple(chain.from_iterable(switches)),
+            "source": source, "target": meta[:, 3], "modes": prep.mode_names, "kind": kind,
+            "kinds": _KINDS, "grazing": EV[:, 6] != 0, "pre": EV[:, 7:7 + n],
+            "post": EV[:, 7 + n:]}
 
 
 def _records(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, EV: np.ndarray,
-             PT: np.ndarray, ST: np.ndarray, SG: np.ndarray) -> tuple[list, list]:
-    """Events and segments from the kernel's records."""
+             PT: np.ndarray, ST: np.ndarray, SG: np.ndarray, last: tuple | None = None
+             ) -> tuple[EventTable, SegmentTable]:
+    """Events and segments from the kernel's records, as tables that make each object when read.
+
+    The events' columns are read from ``EV`` only when first needed. ``last``
+    is where the run ended, ``(t, x, mode index, j)``; a one-point segment is
+    added there unless the last segment ends there.
+    """
     names = compiled.state_names
     n = len(names)
-    modes = prep.mode_names
-    jump_labels, switch_labels = prep.jump_labels, prep.switch_labels
-    new = object.__new__
-    events = []
-    if len(EV):
-        meta = EV[:, 1:6].astype(np.int64).tolist()
-        for t, (j, which, src, tgt, kind), grazing, pre, post in zip(
-                EV[:, 0].tolist(), meta, (EV[:, 6] != 0).tolist(), EV[:, 7:7 + n].tolist(),
-                EV[:, 7 + n:].tolist(), strict=True):
-            label = jump_labels[which] if kind == 0 else switch_labels[src][which]
-            event = new(Event)  # see _new
-            event.__dict__.update(t=t, j=j, transition=label, source=modes[src],
-                                  target=modes[tgt], pre=dict(zip(names, pre, strict=True)),
-                                  post=dict(zip(names, post, strict=True)), kind=_KINDS[kind],
-                                  grazing=grazing)
-            events.append(event)
-    method = METHOD_CODES[o.method]
-    segments = []
-    if len(SG):
-        # one copy of the points for the whole run; each segment holds views of it
-        times = PT[:, 0].copy()
-        states = np.ascontiguousarray(PT[:, 1:].T)
-        for mode_i, seg_j, p0, npt, s0, nst in SG.tolist():
-            segments.append(_new(Segment, mode=modes[mode_i], j=seg_j, t=times[p0:p0 + npt],
-                                 y=states[:, p0:p0 + npt],
-                                 interpolants=StepInterpolants(method, n, ST[s0:s0 + nst])))
+    events = EventTable.deferred(names, len(EV), partial(_event_columns, EV, n, prep))
+    m = len(PT)
+    mode, seg_j, first, count = SG[:, 0], SG[:, 1], SG[:, 2], SG[:, 3]
+    extra = last is not None and bool(not len(SG) or PT[first[-1] + count[-1] - 1, 0] < last[0]
+                                      or seg_j[-1] != last[3])
+    # one copy of the points for the whole run; each segment holds views of it
+    points = np.empty((1 + n, m + extra))
+    points[:, :m] = PT.T
+    if extra:
+        points[0, m], points[1:, m] = last[0], last[1]
+        mode, seg_j = np.append(mode, last[2]), np.append(seg_j, last[3])
+        first, count = np.append(first, m), np.append(count, 1)
+    steps = _SegmentSteps(METHOD_CODES[o.method], n, ST, SG[:, 4], SG[:, 5])
+    segments = SegmentTable.from_columns(mode=mode, modes=prep.mode_names, j=seg_j,
+                                         times=points[0], states=points[1:], first=first,
+                                         count=count, interpolants=steps)
     return events, segments
 
 
@@ -422,10 +442,8 @@ def _result(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, code:
             p: np.ndarray, t_end: float) -> SimulationResult:
     names = compiled.state_names
     modes = prep.mode_names
-    events, segments = _records(compiled, prep, o, EV, PT, ST, SG)
     t, x, mode = float(last_t), np.asarray(last_x), modes[int(last_m)]
-    if not segments or segments[-1].t_end < t or segments[-1].j != j:
-        segments.append(Segment(mode, int(j), np.array([t]), x[:, None].copy()))
+    events, segments = _records(compiled, prep, o, EV, PT, ST, SG, (t, x, int(last_m), int(j)))
     zeno_time = None
     if code == COMPLETED:
         status, message = Status.COMPLETED, f"reached t_end = {t_end!r}"
@@ -447,6 +465,6 @@ def _result(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, code:
              "backend": "compiled", "compiled_cache_hit": prep.cache_hit}
     final = FinalState(t, int(j), mode, dict(zip(names, map(float, x), strict=True)))
     parameters = dict(zip(compiled.parameter_names, map(float, p), strict=True))
-    return SimulationResult(status, message, tuple(events), tuple(segments), final, names,
-                            zeno_time, stats, parameters, compiled)
+    return SimulationResult(status, message, events, segments, final, names, zeno_time, stats,
+                            parameters, compiled)
 
