@@ -190,6 +190,10 @@ def _sci(x: float) -> str:
     return "nan" if math.isnan(x) else f"{x:.1e}"
 
 
+#: calls of one implementation in a row per round (the first is the switched one)
+BLOCK = 5
+
+
 def run(repeat: int) -> Report:
     """Time and check both implementations at every method and tolerance level."""
     model = hybridlab.load_model(MODEL)
@@ -223,12 +227,13 @@ def run(repeat: int) -> Report:
                 [lambda m=method, r=rtol, a=atol: scipy_restart_loop(ball, m, r, a),
                  lambda m=method, r=rtol, a=atol: hybridlab_run(compiled, m, r, a),
                  lambda m=method, r=rtol, a=atol: hybridlab_run(compiled, m, r, a, "compiled")],
-                repeat=repeat)
+                repeat=repeat, block=BLOCK)
             base_err, hl_err = errors(ball, exact, base), errors(ball, exact, hl)
             fast_err = errors(ball, exact, fast)
             ratio = hl_time.median / base_time.median
             ratio_best = hl_time.best / base_time.best
             speedup = base_time.median / fast_time.median
+            speedup_switched = base_time.switched_median / fast_time.switched_median
             speed_rows.append([method, f"{rtol:g}", f"{atol:g}", _ms(base_time.median),
                                _ms(hl_time.median), f"{ratio:.1f}", f"{ratio_best:.1f}",
                                str(base_err["bounces"]), str(hl_err["bounces"]),
@@ -236,6 +241,8 @@ def run(repeat: int) -> Report:
                                _sci(hl_err["max_impact_error"])])
             fast_rows.append([method, f"{rtol:g}", _ms(base_time.median),
                               f"{1e3 * fast_time.median:.2f}", f"{speedup:.0f}",
+                              f"{1e3 * fast_time.switched_median:.2f}",
+                              f"{speedup_switched:.0f}",
                               f"{hl_time.median / fast_time.median:.0f}",
                               str(fast_err["bounces"]), _sci(fast_err["max_impact_error"]),
                               str(fast.stats.get("backend"))])
@@ -250,6 +257,7 @@ def run(repeat: int) -> Report:
                 "hybridlab": {**hl_time.as_dict(), **hl_err},
                 "compiled": {**fast_time.as_dict(), **fast_err},
                 "compiled_speedup_vs_scipy": speedup,
+                "compiled_speedup_vs_scipy_switched": speedup_switched,
                 "compiled_speedup_vs_reference": hl_time.median / fast_time.median,
             })
     report.records.append({"exact_bounces": int(exact.size), "exact_impacts": exact.tolist(),
@@ -258,16 +266,16 @@ def run(repeat: int) -> Report:
                            "first_compiled_run_ms": first_compiled_ms,
                            "repeat": repeat})
     report.tables.append((
-        f"Speed and event accuracy (median of {repeat} interleaved runs after a warm-up; "
-        f"closed form: {exact.size} bounces)",
+        f"Speed and event accuracy (median of {repeat} rounds of {BLOCK - 1} warm runs each, "
+        f"the implementations alternating round by round; closed form: {exact.size} bounces)",
         ["method", "rtol", "atol", "scipy [ms]", "hybridlab [ms]", "ratio", "ratio best",
          "bounces scipy", "bounces hl", "max|dt_k| scipy", "max|dt_k| hl"],
         speed_rows))
     report.tables.append((
         "Compiled backend (numba): speed-up = scipy time / compiled time (medians; above 1 the "
-        "compiled backend is faster)",
-        ["method", "rtol", "scipy [ms]", "compiled [ms]", "x vs scipy", "x vs reference",
-         "bounces", "max|dt_k|", "backend"],
+        "compiled backend is faster); warm, and right after the other implementation ran",
+        ["method", "rtol", "scipy [ms]", "compiled [ms]", "x vs scipy", "compiled switched [ms]",
+         "x switched", "x vs reference", "bounces", "max|dt_k|", "backend"],
         fast_rows))
     report.tables.append((
         f"End state at T = {ball.t_end:g} against the closed form "
@@ -280,6 +288,9 @@ def run(repeat: int) -> Report:
         "ratio = hybridlab time / scipy time (medians; 'ratio best' from the fastest runs): "
         "above 1 means hybridlab (hl) is slower, taking that many times as long; below 1 it "
         "is faster.",
+        f"Each round calls each implementation {BLOCK} times in a row: the first call of a "
+        "block runs right after another implementation (cold caches, its garbage) and is "
+        "reported as 'switched'; the other calls are warm and give the medians.",
         "max|dt_k| is the largest |t_k - t_k(exact)| over all bounces, in seconds; "
         f"bounce {exact.size} is at {exact[-1]:.6f} s, the next one would be at {t_next:.6f} s.",
         f"One-off hybridlab costs, not in the timed column: load_model {load_ms:.1f} ms, "

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
+import math
 import os
 import platform
 import statistics
@@ -51,10 +52,16 @@ class Timing:
     Attributes
     ----------
     times : tuple of float
-        Every timed call, in order (the warm-up run is not included).
+        Every timed call, in order (the warm-up run is not included). With
+        blocks (see :func:`time_calls`), the warm calls: those right after a
+        call of the same function.
+    switched : tuple of float
+        With blocks, the first call of each block: right after another
+        implementation ran, so with its caches (and the garbage it left) cold.
     """
 
     times: tuple[float, ...]
+    switched: tuple[float, ...] = ()
 
     @property
     def best(self) -> float:
@@ -64,12 +71,19 @@ class Timing:
     def median(self) -> float:
         return statistics.median(self.times)
 
+    @property
+    def switched_median(self) -> float:
+        return statistics.median(self.switched) if self.switched else math.nan
+
     def as_dict(self) -> dict[str, Any]:
-        return {"best_s": self.best, "median_s": self.median, "times_s": list(self.times)}
+        out = {"best_s": self.best, "median_s": self.median, "times_s": list(self.times)}
+        if self.switched:
+            out.update(switched_median_s=self.switched_median, switched_s=list(self.switched))
+        return out
 
 
-def time_calls(fns: Sequence[Callable[[], Any]], *, repeat: int,
-               warmup: int = 1) -> list[tuple[Timing, Any]]:
+def time_calls(fns: Sequence[Callable[[], Any]], *, repeat: int, warmup: int = 1,
+               block: int = 1) -> list[tuple[Timing, Any]]:
     """Time several calls against each other, interleaved.
 
     Each function gets ``warmup`` untimed calls, then round ``k`` of
@@ -77,25 +91,36 @@ def time_calls(fns: Sequence[Callable[[], Any]], *, repeat: int,
     load during the measurement affects all of them alike and their ratio
     stays fair.
 
+    With ``block > 1`` each round calls every function ``block`` times in a
+    row: the first call of a block is recorded as *switched* (it runs right
+    after another implementation, with cold caches), the others as warm
+    (``Timing.times``). A call of a millisecond pays a large share for
+    coming second; the warm median is its steady state, the switched one
+    what a caller alternating between libraries sees.
+
     Returns
     -------
     list of (Timing, value)
         Per function, its timings and the value of its last call, so a
         benchmark can check the accuracy of exactly what it timed.
     """
-    if repeat < 1:
-        raise ValueError(f"repeat must be at least 1 (got {repeat!r})")
+    if repeat < 1 or block < 1:
+        raise ValueError(f"repeat and block must be at least 1 (got {repeat!r}, {block!r})")
     values: list[Any] = [None] * len(fns)
     times: list[list[float]] = [[] for _ in fns]
+    switched: list[list[float]] = [[] for _ in fns]
     for i, fn in enumerate(fns):
         for _ in range(warmup):
             values[i] = fn()
     for _ in range(repeat):
         for i, fn in enumerate(fns):
-            start = time.perf_counter()
-            values[i] = fn()
-            times[i].append(time.perf_counter() - start)
-    return [(Timing(tuple(t)), v) for t, v in zip(times, values, strict=True)]
+            for b in range(block):
+                start = time.perf_counter()
+                values[i] = fn()
+                elapsed = time.perf_counter() - start
+                (switched[i] if block > 1 and b == 0 else times[i]).append(elapsed)
+    return [(Timing(tuple(t), tuple(s)), v)
+            for t, s, v in zip(times, switched, values, strict=True)]
 
 
 def time_call(fn: Callable[[], T], *, repeat: int, warmup: int = 1) -> tuple[Timing, T]:

@@ -39,6 +39,8 @@ TOLERANCES = ((1e-6, 1e-9), (1e-8, 1e-10), (1e-10, 1e-12))
 TRUTH_RTOL, TRUTH_ATOL = 1e-12, 1e-14
 #: The trolley jobs take seconds each: at most this many timed repetitions.
 MAX_REPEAT = 5
+#: calls of one implementation in a row per round (the first is the switched one)
+BLOCK = 3
 SCENARIOS = {"free_drop": "free_drop", "stop_and_return": "default"}
 
 
@@ -96,8 +98,9 @@ def run_job(job: str, repeat: int, name: str, title: str) -> Report:
         ]
         if has_compiled:
             fns.append(lambda r=rtol, a=atol: _hl(compiled, scenario, "compiled", METHOD, r, a))
-        timed = time_calls(fns, repeat=repeat)
+        timed = time_calls(fns, repeat=repeat, block=BLOCK)
         med = [tm.median for tm, _ in timed] + [math.nan] * (4 - len(timed))
+        switched = [tm.switched_median for tm, _ in timed] + [math.nan] * (4 - len(timed))
         record: dict[str, Any] = {"method": METHOD, "rtol": rtol, "atol": atol}
         for label, (tm, events) in zip(labels, timed, strict=False):
             acc = trolley_check.compare(events, truth, friction_until=horizon)
@@ -116,11 +119,15 @@ def run_job(job: str, repeat: int, name: str, title: str) -> Report:
             "compiled/scipy": med[3] / med[0], "compiled/scipy+max_step": med[3] / med[1],
             "compiled/ref": med[3] / med[2],
         }
+        speedups = {"scipy/compiled": med[0] / med[3],
+                    "scipy/compiled switched": switched[0] / switched[3]}
+        record["speedups"] = speedups
         record["ratios_median"] = ratios
         report.records.append(record)
         speed_rows.append([METHOD, f"{rtol:g}", f"{atol:g}",
                            *("n/a" if math.isnan(m) else f"{1e3 * m:.0f}" for m in med),
-                           *("n/a" if math.isnan(v) else f"{v:.2f}" for v in ratios.values())])
+                           *("n/a" if math.isnan(v) else f"{v:.2f}" for v in ratios.values()),
+                           *("n/a" if math.isnan(v) else f"{v:.1f}" for v in speedups.values())])
     report.records.append({"repeat": repeat, "truth": {"rtol": TRUTH_RTOL, "atol": TRUTH_ATOL,
                                                        "events": len(truth)},
                            "check": {"counts": agreement.counts,
@@ -128,10 +135,12 @@ def run_job(job: str, repeat: int, name: str, title: str) -> Report:
                                      "friction_dt": agreement.friction_dt()},
                            "compiled_backend": has_compiled})
     report.tables.append((
-        f"Speed (median of {repeat} interleaved runs after a warm-up, ms) and ratios "
-        "(hybridlab time / scipy time: below 1 hybridlab is faster)",
+        f"Speed (median of {repeat} rounds of {BLOCK - 1} warm runs each, the implementations "
+        "alternating round by round, ms), ratios (hybridlab time / scipy time: below 1 "
+        "hybridlab is faster) and the compiled backend's speed-up over the plain scipy loop, "
+        "warm and switched (right after another implementation ran)",
         ["method", "rtol", "atol", "scipy", "scipy+ms", "hl ref", "hl comp", "ref/scipy",
-         "ref/scipy+ms", "comp/scipy", "comp/scipy+ms", "comp/ref"],
+         "ref/scipy+ms", "comp/scipy", "comp/scipy+ms", "comp/ref", "x warm", "x switched"],
         speed_rows))
     report.tables.append((
         f"Accuracy against hybridlab reference at rtol {TRUTH_RTOL:g}, atol {TRUTH_ATOL:g} "

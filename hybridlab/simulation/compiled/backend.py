@@ -24,7 +24,7 @@ import os
 import sys
 import weakref
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import partial
 from itertools import accumulate, chain
@@ -174,6 +174,27 @@ class Prepared:
     #: the scheduled transitions, and the schedule tables of the parameter vector last used
     scheduled: tuple = ()
     last_schedule: dict = field(default_factory=dict, compare=False)
+    #: the kernel's compiled entry point for this model's argument types (see kernel_entry)
+    entries: dict = field(default_factory=dict, compare=False)
+
+    def kernel_entry(self, args: tuple) -> Callable:
+        """The kernel's compiled entry point for these argument types.
+
+        The first call goes through numba's dispatcher, which types every
+        argument (a first-class function among them) on each call: about
+        40 us, a tenth of a 44-bounce ball. The entry point it compiled (or
+        loaded) for these types is then kept and called directly; the
+        argument types of a model's runs never change.
+        """
+        entry = self.entries.get("kernel")
+        if entry is None:
+            entry = run_kernel
+            types = tuple(map(run_kernel.typeof_pyval, args))
+            overload = run_kernel.overloads.get(types)
+            if overload is not None:
+                entry = overload.entry_point
+                self.entries["kernel"] = entry
+        return entry
 
     def schedule_tables(self, p: np.ndarray) -> tuple[tuple, tuple]:
         """The kernel's ``ints`` and ``reals`` for parameters ``p``.
@@ -314,10 +335,10 @@ def run(compiled: CompiledModel, *, t0: float, x0: np.ndarray, mode: str, t_end:
     zcount = np.zeros(max(n_keys, 1), dtype=np.int64)
     sched_done = np.full(max(n_tr, 1), -1, dtype=np.int64)
     m0 = prep.mode_names.index(mode)
-    out = run_kernel(prep.module.model, ints, reals, opts_i, opts_f, float(t0),
-                     np.ascontiguousarray(x0, dtype=float), m0, float(t_end),
-                     np.ascontiguousarray(p, dtype=float), prep.n_sig, ztimes, zcount,
-                     sched_done)
+    args = (prep.module.model, ints, reals, opts_i, opts_f, float(t0),
+            np.ascontiguousarray(x0, dtype=float), m0, float(t_end),
+            np.ascontiguousarray(p, dtype=float), prep.n_sig, ztimes, zcount, sched_done)
+    out = prep.kernel_entry(args)(*args)
     code, EV, PT, ST, SG, kstats, info, last_t, last_x, last_m, j = out[:11]
     if code == HANDOFF:
         return _hand_off(compiled, prep, o, out, p, float(t_end), kw)

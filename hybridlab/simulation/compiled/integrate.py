@@ -17,11 +17,11 @@ import numpy as np
 from scipy.integrate._ivp import dop853_coefficients as _dop
 from scipy.integrate._ivp.rk import RK45 as _RK45
 
-from hybridlab.simulation.compiled.signatures import ptr
-from hybridlab.simulation.compiled.sliding import rhs
+from hybridlab.simulation.compiled.signatures import ptr, ptr_at
+from hybridlab.simulation.compiled.sliding import OP_FLOW, rhs
 
 __all__ = ["RK45", "DOP853", "METHOD_CODES", "ptr", "rk_step", "dense_coefficients",
-           "dense_eval", "initial_step"]
+           "dense_eval", "dense_eval_at", "initial_step"]
 
 RK45, DOP853 = 0, 1
 #: method name -> kernel code
@@ -94,6 +94,8 @@ def _stages(model, method, fc, t, y, f, h, p, sig, K, y_new, f_new, tmp):
         ns = _DP_N
     K[0, :] = f
     tmp[:] = y
+    n = y.size
+    fg, W, plain = fc[0], fc[6], fc[5].size == 0
     for s in range(1, ns):
         for a in range(act.size):
             i = act[a]
@@ -101,7 +103,11 @@ def _stages(model, method, fc, t, y, f, h, p, sig, K, y_new, f_new, tmp):
             for r in range(s):
                 acc += K[r, i] * A[s, r]
             tmp[i] = y[i] + acc * h
-        rhs(model, fc, t + C[s] * h, tmp, p, sig, K[s])
+        if plain:  # the flow straight into row s of K: no row view, no flow context to unpack
+            model(OP_FLOW, fg, t + C[s] * h, ptr(tmp), ptr(p), ptr(sig), ptr(W),
+                  ptr_at(K, s * n))
+        else:
+            rhs(model, fc, t + C[s] * h, tmp, p, sig, K[s])
     y_new[:] = y
     for a in range(act.size):
         i = act[a]
@@ -209,6 +215,8 @@ def dense_coefficients(model, method, fc, t_old, h, y_old, y, f, p, sig, K, tmp,
                 coef[j, i] = acc
         return
     tmp[:] = y_old
+    n = y.size
+    fg, W, plain = fc[0], fc[6], fc[5].size == 0
     for s in range(_DP_N + 1, K.shape[0]):
         for a in range(act.size):
             i = act[a]
@@ -216,7 +224,11 @@ def dense_coefficients(model, method, fc, t_old, h, y_old, y, f, p, sig, K, tmp,
             for r in range(s):
                 acc += K[r, i] * _DP_A[s, r]
             tmp[i] = y_old[i] + acc * h
-        rhs(model, fc, t_old + _DP_C[s] * h, tmp, p, sig, K[s])
+        if plain:
+            model(OP_FLOW, fg, t_old + _DP_C[s] * h, ptr(tmp), ptr(p), ptr(sig), ptr(W),
+                  ptr_at(K, s * n))
+        else:
+            rhs(model, fc, t_old + _DP_C[s] * h, tmp, p, sig, K[s])
     for a in range(act.size):
         i = act[a]
         dy = y[i] - y_old[i]
@@ -231,28 +243,33 @@ def dense_coefficients(model, method, fc, t_old, h, y_old, y, f, p, sig, K, tmp,
 
 
 @numba.njit(cache=True, inline="always")
-def dense_eval(method, coef, t_old, h, y_old, act, t, out):
-    """The step's interpolant at ``t`` into ``out`` (inactive states: ``y_old``)."""
+def dense_eval_at(method, coef, t_old, h, y_old, act, n, nco, nact, t, out):
+    """:func:`dense_eval` on raw pointers (``coef`` row-major ``nco x n``): no array is bound,
+    so a loop calling it pays no reference counting."""
     x = (t - t_old) / h
-    out[:] = y_old
-    if method == RK45:
-        for a in range(act.size):
-            i = act[a]
-            acc = 0.0
-            pw = 1.0
-            for j in range(coef.shape[0]):
-                pw *= x
-                acc += coef[j, i] * pw
-            out[i] = h * acc + y_old[i]
-        return
-    m = coef.shape[0]
-    for a in range(act.size):
+    for i in range(n):
+        out[i] = y_old[i]
+    for a in range(nact):
         i = act[a]
         acc = 0.0
-        for k in range(m):
-            acc += coef[m - 1 - k, i]
-            if k % 2 == 0:
-                acc *= x
-            else:
-                acc *= 1 - x
-        out[i] = acc + y_old[i]
+        if method == RK45:
+            pw = 1.0
+            for j in range(nco):
+                pw *= x
+                acc += coef[j * n + i] * pw
+            out[i] = h * acc + y_old[i]
+        else:
+            for k in range(nco):
+                acc += coef[(nco - 1 - k) * n + i]
+                if k % 2 == 0:
+                    acc *= x
+                else:
+                    acc *= 1 - x
+            out[i] = acc + y_old[i]
+
+
+@numba.njit(cache=True, inline="always")
+def dense_eval(method, coef, t_old, h, y_old, act, t, out):
+    """The step's interpolant at ``t`` into ``out`` (inactive states: ``y_old``)."""
+    dense_eval_at(method, ptr(coef), t_old, h, ptr(y_old), ptr(act), y_old.size, coef.shape[0],
+                  act.size, t, ptr(out))

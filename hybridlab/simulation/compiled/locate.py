@@ -8,7 +8,7 @@ line (Brent's ``brentq`` and the bounded Brent minimiser of
 same monitors at the same instants.
 """
 
-# ruff: noqa: SIM109 - kept line by line with the scipy / reference code it ports
+# ruff: noqa: SIM108, SIM109 - kept line by line with the scipy / reference code it ports
 
 from __future__ import annotations
 
@@ -17,9 +17,9 @@ import math
 import numba
 import numpy as np
 
-from hybridlab.simulation.compiled.integrate import RK45, dense_eval
+from hybridlab.simulation.compiled.integrate import RK45, dense_eval_at
 from hybridlab.simulation.compiled.signatures import ptr
-from hybridlab.simulation.compiled.sliding import equivalent, equivalent_signs
+from hybridlab.simulation.compiled.sliding import equivalent_signs
 
 __all__ = ["monitors_at", "monitor_value", "sample_step", "scan", "GUARD", "INVARIANT", "SWITCH",
            "EXIT"]
@@ -79,29 +79,59 @@ def monitors_at(model, md, p, sig, ws, t, x, f, phi, dphi, col):
 
 
 @numba.njit(cache=True, inline="always")
-def monitor_value(model, md, p, sig, ws, step, r, t):
-    """One monitor's value at time ``t`` of the step (the root finders' inner loop)."""
+def probe(md, p, sig, ws, step, r):
+    """What :func:`probe_value` needs of monitor ``r`` in this step: scalars and raw pointers.
+
+    The root finders evaluate one monitor dozens of times. Passing them the
+    tuples of arrays would bind every array again at each evaluation, and
+    numba counts references on each binding (atomically); a probe holds no
+    array, so an evaluation costs the arithmetic and the model call only.
+    The arrays it points into (the step's coefficients and start, the
+    workspace) outlive every use of the probe.
+    """
     fc, cg, mk, mref, mstart, mlen, nc = md
-    xs, f, cv, cd, sv, sd, eqv = ws
-    sg = fc[1]
-    dummy = fc[6]
+    xs, _, cv, _, sv, _, eqv = ws
     method, coef, t_old, h, y_old, act = step
-    dense_eval(method, coef, t_old, h, y_old, act, t, xs)
-    kind = mk[r]
+    sl, W = fc[5], fc[6]
+    pos = 0
+    for a in range(sl.size):
+        if sl[a] == mref[r]:
+            pos = a
+    return (mk[r], mref[r], mstart[r], mlen[r], cg, fc[1], nc, fc[7], fc[4], method, t_old, h,
+            y_old.size, coef.shape[0], act.size, sl.size, W.size, p.size, sig.size, pos,
+            ptr(xs), ptr(p), ptr(sig), ptr(cv), ptr(sv), ptr(eqv), ptr(W), ptr(coef),
+            ptr(y_old), ptr(act), ptr(sl))
+
+
+@numba.njit(cache=True, inline="always")
+def probe_value(model, pr, t):
+    """The probed monitor's value at time ``t`` of the step (the root finders' inner loop)."""
+    (kind, ref, start, length, cg, sg, nc, pg, m, method, t_old, h, n, nco, nact, nsl, nw, npar,
+     nsig, pos, xs, p, sig, cv, sv, eqv, W, coef, y_old, act) = pr[:30]
+    dense_eval_at(method, coef, t_old, h, y_old, act, n, nco, nact, t, xs)
     if kind == SWITCH:
-        model(OP_SWITCH, sg, t, ptr(xs), ptr(p), ptr(sig), ptr(dummy), ptr(sv))
-        return sig[mref[r]] * sv[mref[r]]
+        model(OP_SWITCH, sg, t, xs, p, sig, W, sv)
+        return sig[ref] * sv[ref]
     if kind == EXIT:
-        equivalent(model, fc, t, xs, p, sig, eqv)
-        return 1.0 - abs(eqv[_position(fc[5], mref[r])])
-    model(OP_COND, cg, t, ptr(xs), ptr(p), ptr(sig), ptr(dummy), ptr(cv))
+        # arrays over the same memory without a reference count (numba.carray)
+        equivalent_signs(model, pg, m, numba.carray(pr[30], nsl), numba.carray(act, nact),
+                         numba.carray(W, nw), t, numba.carray(xs, n), numba.carray(p, npar),
+                         numba.carray(sig, nsig), numba.carray(eqv, nsig))
+        return 1.0 - abs(eqv[pos])
+    model(OP_COND, cg, t, xs, p, sig, W, cv)
     if kind == INVARIANT:
-        return cv[mstart[r]]
-    best = cv[mstart[r]]
-    for q in range(mstart[r] + 1, mstart[r] + mlen[r]):
+        return cv[start]
+    best = cv[start]
+    for q in range(start + 1, start + length):
         if cv[q] < best:
             best = cv[q]
     return -best
+
+
+@numba.njit(cache=True, inline="always")
+def monitor_value(model, md, p, sig, ws, step, r, t):
+    """One monitor's value at time ``t`` of the step (see :func:`probe`)."""
+    return probe_value(model, probe(md, p, sig, ws, step, r), t)
 
 
 @numba.njit(cache=True)
@@ -358,10 +388,11 @@ def _above(h, fa, fb, da, db, tol):
 
 @numba.njit(cache=True)
 def _brentq(model, md, p, sig, ws, step, r, level, xa, xb, xtol, rtol, maxiter):
+    pr = probe(md, p, sig, ws, step, r)
     xpre, xcur = xa, xb
     xblk, fblk, spre, scur = 0.0, 0.0, 0.0, 0.0
-    fpre = monitor_value(model, md, p, sig, ws, step, r, xpre) - level
-    fcur = monitor_value(model, md, p, sig, ws, step, r, xcur) - level
+    fpre = probe_value(model, pr, xpre) - level
+    fcur = probe_value(model, pr, xcur) - level
     if fpre == 0:
         return xpre
     if fcur == 0:
@@ -395,13 +426,14 @@ def _brentq(model, md, p, sig, ws, step, r, level, xa, xb, xtol, rtol, maxiter):
             xcur += scur
         else:
             xcur += delta if sbis > 0 else -delta
-        fcur = monitor_value(model, md, p, sig, ws, step, r, xcur) - level
+        fcur = probe_value(model, pr, xcur) - level
     return xcur
 
 
 @numba.njit(cache=True)
 def _locate(model, md, p, sig, ws, step, r, level, lo, hi, f_hi, xtol):
     """``locate_crossing``: the first time within ``xtol`` at which the monitor holds."""
+    pr = probe(md, p, sig, ws, step, r)
     if f_hi == 0.0 or hi - lo <= xtol:
         return hi
     root = _brentq(model, md, p, sig, ws, step, r, level, lo, hi, 0.25 * xtol, 4 * _EPS, 200)
@@ -409,16 +441,16 @@ def _locate(model, md, p, sig, ws, step, r, level, lo, hi, f_hi, xtol):
         cand = root + 0.25 * j * xtol
         if cand >= hi:
             return hi
-        if monitor_value(model, md, p, sig, ws, step, r, cand) - level <= 0:
+        if probe_value(model, pr, cand) - level <= 0:
             return cand
     lo2 = max(lo, root - 0.5 * xtol)
-    if monitor_value(model, md, p, sig, ws, step, r, lo2) - level > 0:
+    if probe_value(model, pr, lo2) - level > 0:
         lo = lo2
     for _ in range(200):
         if hi - lo <= xtol:
             break
         mid = 0.5 * (lo + hi)
-        if monitor_value(model, md, p, sig, ws, step, r, mid) - level > 0:
+        if probe_value(model, pr, mid) - level > 0:
             lo = mid
         else:
             hi = mid
@@ -428,6 +460,7 @@ def _locate(model, md, p, sig, ws, step, r, level, lo, hi, f_hi, xtol):
 @numba.njit(cache=True)
 def _fminbound(model, md, p, sig, ws, step, r, level, x1, x2, xatol):
     """scipy's bounded Brent minimiser (``minimize_scalar(method="bounded")``)."""
+    pr = probe(md, p, sig, ws, step, r)
     sqrt_eps = math.sqrt(2.2e-16)
     golden_mean = 0.5 * (3.0 - math.sqrt(5.0))
     a, b = x1, x2
@@ -435,7 +468,7 @@ def _fminbound(model, md, p, sig, ws, step, r, level, x1, x2, xatol):
     nfc, xf = fulc, fulc
     rat = e = 0.0
     x = xf
-    fx = monitor_value(model, md, p, sig, ws, step, r, x) - level
+    fx = probe_value(model, pr, x) - level
     num = 1
     ffulc = fnfc = fx
     xm = 0.5 * (a + b)
@@ -467,7 +500,7 @@ def _fminbound(model, md, p, sig, ws, step, r, level, x1, x2, xatol):
             rat = golden_mean * e
         si = _sgn(rat) + (1.0 if rat == 0 else 0.0)
         x = xf + si * max(abs(rat), tol1)
-        fu = monitor_value(model, md, p, sig, ws, step, r, x) - level
+        fu = probe_value(model, pr, x) - level
         num += 1
         if fu <= fx:
             if x >= xf:
@@ -499,11 +532,12 @@ def _fminbound(model, md, p, sig, ws, step, r, level, x1, x2, xatol):
 def _search(model, md, p, sig, ws, step, r, cand, tau, phi, lo_val, lo_s, t_from, level,
             xtol, tol):
     """First time the monitor reaches ``level`` in the candidate intervals (location.py)."""
+    pr = probe(md, p, sig, ws, step, r)
     for k in cand:
         a = max(tau[k], t_from)
         b = tau[k + 1]
         if a != tau[k]:
-            f_a = monitor_value(model, md, p, sig, ws, step, r, a) - level
+            f_a = probe_value(model, pr, a) - level
         else:
             f_a = phi[k] - level
         f_b = phi[k + 1] - level
@@ -515,7 +549,7 @@ def _search(model, md, p, sig, ws, step, r, cand, tau, phi, lo_val, lo_s, t_from
             xatol = max(xtol, 1e-15 * max(abs(a), abs(b), 1.0))
             t_min, f_min = _fminbound(model, md, p, sig, ws, step, r, level, a, b, xatol)
             guess = a + lo_s[k] * (b - a)
-            f_guess = monitor_value(model, md, p, sig, ws, step, r, guess) - level
+            f_guess = probe_value(model, pr, guess) - level
             if f_guess < f_min:
                 t_min, f_min = guess, f_guess
             if f_b <= 0 and f_b < f_min:
@@ -532,6 +566,7 @@ def _search(model, md, p, sig, ws, step, r, cand, tau, phi, lo_val, lo_s, t_from
 def _first_trigger(model, md, p, sig, ws, step, r, tau, phi, dphi, armed, xtol, tol,
                    has_floor, floor):
     """``first_trigger`` of location.py: ``(found, t, grazing, armed_after)``."""
+    pr = probe(md, p, sig, ws, step, r)
     K = tau.size - 1
     lo_val = np.empty(K)
     lo_s = np.empty(K)
@@ -540,8 +575,12 @@ def _first_trigger(model, md, p, sig, ws, step, r, tau, phi, dphi, armed, xtol, 
     lower = np.empty(K)
     for k in range(K):
         h = tau[k + 1] - tau[k]
-        lo_val[k], lo_s[k], hi_val[k], hi_s[k] = _extremes(h, phi[k], phi[k + 1], dphi[k],
-                                                           dphi[k + 1])
+        if armed and _above(h, phi[k], phi[k + 1], dphi[k], dphi[k + 1], tol):
+            # no candidate here (see _above): the extrema are never read
+            lo_val[k], lo_s[k], hi_val[k], hi_s[k] = phi[k], 0.0, phi[k], 0.0
+        else:
+            lo_val[k], lo_s[k], hi_val[k], hi_s[k] = _extremes(h, phi[k], phi[k + 1], dphi[k],
+                                                               dphi[k + 1])
         lower[k] = min(phi[k], phi[k + 1], lo_val[k])
     start = 0
     t_from = tau[0]
@@ -571,7 +610,7 @@ def _first_trigger(model, md, p, sig, ws, step, r, tau, phi, dphi, armed, xtol, 
             t_from = tau[start]
         elif hi_val[start] > tol and hi_s[start] < 1.0:
             t_from = tau[start] + hi_s[start] * (tau[start + 1] - tau[start])
-            if monitor_value(model, md, p, sig, ws, step, r, t_from) <= tol:
+            if probe_value(model, pr, t_from) <= tol:
                 t_from = tau[start + 1]
                 start += 1
         else:
