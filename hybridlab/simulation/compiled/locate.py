@@ -103,6 +103,19 @@ def probe(md, p, sig, ws, step, r):
             ptr(y_old), ptr(act), ptr(sl))
 
 
+@numba.njit(cache=True)
+def _exit_value(model, pr, t):
+    """A sliding exit's value ``1 - |sigma_eq|`` at the probed state (not inlined: the
+    equivalent-sign solve is large, and :func:`probe_value` is inlined in every root finder)."""
+    (_, _, _, _, _, _, _, pg, m, _, _, _, n, _, nact, nsl, nw, npar, nsig, pos, xs, p, sig, _,
+     _, eqv, W, _, _, act) = pr[:30]
+    # arrays over the same memory without a reference count (numba.carray)
+    equivalent_signs(model, pg, m, numba.carray(pr[30], nsl), numba.carray(act, nact),
+                     numba.carray(W, nw), t, numba.carray(xs, n), numba.carray(p, npar),
+                     numba.carray(sig, nsig), numba.carray(eqv, nsig))
+    return 1.0 - abs(eqv[pos])
+
+
 @numba.njit(cache=True, inline="always")
 def probe_value(model, pr, t):
     """The probed monitor's value at time ``t`` of the step (the root finders' inner loop)."""
@@ -113,11 +126,7 @@ def probe_value(model, pr, t):
         model(OP_SWITCH, sg, t, xs, p, sig, W, sv)
         return sig[ref] * sv[ref]
     if kind == EXIT:
-        # arrays over the same memory without a reference count (numba.carray)
-        equivalent_signs(model, pg, m, numba.carray(pr[30], nsl), numba.carray(act, nact),
-                         numba.carray(W, nw), t, numba.carray(xs, n), numba.carray(p, npar),
-                         numba.carray(sig, nsig), numba.carray(eqv, nsig))
-        return 1.0 - abs(eqv[pos])
+        return _exit_value(model, pr, t)
     model(OP_COND, cg, t, xs, p, sig, W, cv)
     if kind == INVARIANT:
         return cv[start]
