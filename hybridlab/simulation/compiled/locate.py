@@ -58,24 +58,26 @@ def monitors_at(model, md, p, sig, ws, t, x, f, phi, dphi, col):
     if sg >= 0:
         model(OP_SWITCH_BOTH, sg, t, ptr(x), ptr(p), ptr(sig), ptr(f), ptr(sv))
     for r in range(mk.size):
-        kind = mk[r]
-        if kind == GUARD:
-            i = mstart[r]
-            for q in range(mstart[r] + 1, mstart[r] + mlen[r]):
-                if cv[q] < cv[i]:
-                    i = q
-            phi[r, col] = -cv[i]
-            dphi[r, col] = -cv[nc + i]
-        elif kind == INVARIANT:
-            phi[r, col] = cv[mstart[r]]
-            dphi[r, col] = cv[nc + mstart[r]]
-        elif kind == SWITCH:
-            k = mref[r]
-            phi[r, col] = sig[k] * sv[k]
-            dphi[r, col] = sig[k] * sv[m + k]
-        else:
-            phi[r, col] = 1.0 - abs(eqv[_position(fc[5], mref[r])])
-            dphi[r, col] = 0.0
+        phi[r, col], dphi[r, col] = _column(mk[r], mref[r], mstart[r], mlen[r], nc, m,
+                                            _position(fc[5], mref[r]), ptr(cv), ptr(sv),
+                                            ptr(sig), ptr(eqv))
+
+
+@numba.njit(cache=True, inline="always")
+def _column(kind, ref, start, length, nc, m, pos, cv, sv, sig, eqv):
+    """One monitor's value and slope from the fused model outputs (raw pointers, so the
+    sampler's inner loop binds no array): ``cv = [g | dg/dt]``, ``sv = [s | ds/dt]``."""
+    if kind == GUARD:
+        i = start
+        for q in range(start + 1, start + length):
+            if cv[q] < cv[i]:
+                i = q
+        return -cv[i], -cv[nc + i]
+    if kind == INVARIANT:
+        return cv[start], cv[nc + start]
+    if kind == SWITCH:
+        return sig[ref] * sv[ref], sig[ref] * sv[m + ref]
+    return 1.0 - abs(eqv[pos]), 0.0  # the slope of a sliding exit: see _batch
 
 
 @numba.njit(cache=True, inline="always")
@@ -168,6 +170,7 @@ def _batch(model, md, p, sig, ws, step, times, T, PHI, DPHI, n0):
             for a in range(ns):
                 if sl[a] == mref[r]:
                     pos[r] = a
+    pcv, psv, psig, peqv = ptr(cv), ptr(sv), ptr(sig), ptr(eqv)
     for i in range(times.size):
         t = times[i]
         T[n0 + i] = t
@@ -207,24 +210,8 @@ def _batch(model, md, p, sig, ws, step, times, T, PHI, DPHI, n0):
             model(OP_SWITCH_BOTH, sg, t, ptr(xs), ptr(p), ptr(sig), ptr(xd), ptr(sv))
         col = n0 + i
         for r in range(nm):
-            kind = mk[r]
-            if kind == GUARD:
-                b = mstart[r]
-                for q in range(mstart[r] + 1, mstart[r] + mlen[r]):
-                    if cv[q] < cv[b]:
-                        b = q
-                PHI[r, col] = -cv[b]
-                DPHI[r, col] = -cv[nc + b]
-            elif kind == INVARIANT:
-                PHI[r, col] = cv[mstart[r]]
-                DPHI[r, col] = cv[nc + mstart[r]]
-            elif kind == SWITCH:
-                k = mref[r]
-                PHI[r, col] = sig[k] * sv[k]
-                DPHI[r, col] = sig[k] * sv[m + k]
-            else:
-                PHI[r, col] = 1.0 - abs(eqv[pos[r]])
-                DPHI[r, col] = 0.0
+            PHI[r, col], DPHI[r, col] = _column(mk[r], mref[r], mstart[r], mlen[r], nc, m,
+                                                pos[r], pcv, psv, psig, peqv)
     nt = times.size
     if nt < 2:
         return
