@@ -10,7 +10,7 @@ $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[dev]"
-	@echo "compiling the numba simulation kernel (once per checkout, about a minute)"
+	@echo "compiling the numba simulation kernel (once per checkout, two to three minutes)"
 	$(BIN)/python -c "import hybridlab; hybridlab.simulate('models/bouncing_ball.toml', t_end=1.0)"
 	touch $(STAMP)
 
