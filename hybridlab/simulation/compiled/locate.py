@@ -569,15 +569,20 @@ def _first_trigger(model, md, p, sig, ws, step, r, tau, phi, dphi, armed, xtol, 
     hi_val = np.empty(K)
     hi_s = np.empty(K)
     lower = np.empty(K)
+    # a disarmed monitor re-arms at the latest in the first interval that ends above tol; the
+    # intervals after it are searched like an armed monitor's
+    searched = armed
     for k in range(K):
         h = tau[k + 1] - tau[k]
-        if armed and _above(h, phi[k], phi[k + 1], dphi[k], dphi[k + 1], tol):
+        if searched and _above(h, phi[k], phi[k + 1], dphi[k], dphi[k + 1], tol):
             # no candidate here (see _above): the extrema are never read
             lo_val[k], lo_s[k], hi_val[k], hi_s[k] = phi[k], 0.0, phi[k], 0.0
         else:
             lo_val[k], lo_s[k], hi_val[k], hi_s[k] = _extremes(h, phi[k], phi[k + 1], dphi[k],
                                                                dphi[k + 1])
         lower[k] = min(phi[k], phi[k + 1], lo_val[k])
+        if max(phi[k], phi[k + 1]) > tol:
+            searched = True
     start = 0
     t_from = tau[0]
     if not armed:
@@ -655,6 +660,9 @@ def scan(model, md, p, sig, ws, step, armed, has_floor, floors, t0, t1, samples,
             h = tau[k + 1] - tau[k]
             if armed[r] and _above(h, phi[r, k], phi[r, k + 1], dphi[r, k], dphi[r, k + 1], tol):
                 continue  # the cubic cannot come down to tol here: no candidate
+            if not armed[r] and max(phi[r, k], phi[r, k + 1]) > tol:
+                rising = True  # the monitor re-arms in this step: it is examined
+                break
             lv, _, hv, _ = _extremes(h, phi[r, k], phi[r, k + 1], dphi[r, k], dphi[r, k + 1])
             lower = min(phi[r, k], phi[r, k + 1], lv)
             upper = max(phi[r, k], phi[r, k + 1], hv)
@@ -667,6 +675,8 @@ def scan(model, md, p, sig, ws, step, armed, has_floor, floors, t0, t1, samples,
                     sinking = True
                 if upper > tol:
                     rising = True
+                if sinking or rising:
+                    break  # either makes the monitor examined: no need to look further
         if armed[r]:
             if first >= 0:
                 starts[r] = tau[first]
