@@ -265,6 +265,18 @@ def _eager_from_records(compiled, prep, o, EV, PT, ST, SG, last):
 
 # a switch event in the second mode, whose switches come after the first mode's three: its label
 # is found only with the right offset into the run's label table
+def _spy(monkeypatch, module, name):
+    """Replace ``module.name`` by a wrapper that records each call's arguments; the list."""
+    calls, original = [], getattr(module, name)
+
+    def spy(*args):
+        calls.append(args)
+        return original(*args)
+
+    monkeypatch.setattr(module, name, spy)
+    return calls
+
+
 _SWITCH_IN_MODE_B = """
 name = "switch_in_mode_b"
 states = { x = 1.0, y = 0.0, s = 0.0 }
@@ -295,14 +307,7 @@ def test_compiled_tables_equal_the_eagerly_built_events_and_segments(models_dir,
     pytest.importorskip("numba")
     from hybridlab.simulation.compiled import backend
 
-    seen = []
-    records = backend._records
-
-    def spy(*args):
-        seen.append(args)
-        return records(*args)
-
-    monkeypatch.setattr(backend, "_records", spy)
+    seen = _spy(monkeypatch, backend, "_records")
     model = (hybridlab.model.loads_model(name) if "\n" in name
              else hybridlab.load_model(models_dir / f"{name}.toml"))
     result = hybridlab.simulate(model, backend="compiled", **kw)
@@ -339,14 +344,7 @@ def test_compiled_events_are_read_from_the_records_only_when_needed(models_dir, 
     pytest.importorskip("numba")
     from hybridlab.simulation.compiled import backend
 
-    calls = []
-    event_columns = backend._event_columns
-
-    def spy(*args):
-        calls.append(args)
-        return event_columns(*args)
-
-    monkeypatch.setattr(backend, "_event_columns", spy)
+    calls = _spy(monkeypatch, backend, "_event_columns")
     result = hybridlab.simulate(models_dir / "thermostat.toml", t_end=30.0, backend="compiled")
     result(np.linspace(0.0, 30.0, 7))
     assert len(result.events) == 10 and result.final.j == 10 and result.t.size
