@@ -51,6 +51,12 @@ class SimulationOptions:
     zeno_tol : float
         Zeno is declared once the extrapolated accumulation point is closer
         than ``zeno_tol * max(1, |t|)``.
+    prove_quiet_steps : bool
+        Compiled backend: before sampling a step, bound every monitor over it
+        by interval arithmetic and skip the sampling when none can reach zero.
+        Exact (the same events, see ``docs/semantics.md``);
+        ``result.stats["quiet_steps"]`` counts the skipped steps. ``False``
+        samples every step, as the reference backend does.
     backend : {"auto", "compiled", "reference"}
         ``"compiled"`` runs the numba kernel (the ``fast`` extra), falling back
         to the reference engine for what it does not support (recorded in
@@ -76,6 +82,7 @@ class SimulationOptions:
     zeno: str = "stop"
     zeno_window: int = 6
     zeno_tol: float = 1e-6
+    prove_quiet_steps: bool = True
     backend: str = "auto"
 
     def __post_init__(self) -> None:
@@ -95,6 +102,9 @@ class SimulationOptions:
             raise ValueError(f"zeno_window must be at least 3 (got {self.zeno_window})")
         if not isinstance(self.max_refine, int) or self.max_refine < 0:
             raise ValueError(f"max_refine must be a non-negative integer (got {self.max_refine!r})")
+        if not isinstance(self.prove_quiet_steps, bool):
+            raise ValueError(f"prove_quiet_steps must be True or False "
+                             f"(got {self.prove_quiet_steps!r})")
         if self.backend not in BACKENDS:
             raise ValueError(f"backend must be one of {', '.join(BACKENDS)} "
                              f"(got {self.backend!r})")

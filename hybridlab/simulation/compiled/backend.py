@@ -65,7 +65,7 @@ __all__ = ["cache_dir", "prepare", "run", "Prepared", "StepInterpolants"]
 
 
 #: the modules whose numba functions make up the kernel
-_KERNEL_SOURCES = ("signatures", "sliding", "integrate", "locate", "kernel")
+_KERNEL_SOURCES = ("signatures", "sliding", "integrate", "locate", "bounds", "kernel")
 
 
 def _refresh_kernel_cache() -> None:
@@ -328,14 +328,15 @@ def run(compiled: CompiledModel, *, t0: float, x0: np.ndarray, mode: str, t_end:
     ints, reals = prep.schedule_tables(np.ascontiguousarray(p, dtype=float))
     method = METHOD_CODES[o.method]
     opts_i = np.array([method, o.samples_per_step, o.max_refine, o.max_events,
-                       o.max_event_iterations, o.zeno_window], dtype=np.int64)
+                       o.max_event_iterations, o.zeno_window, int(o.prove_quiet_steps)],
+                      dtype=np.int64)
     opts_f = np.array([o.rtol, o.atol, o.max_step, o.event_tol, o.event_atol, o.zeno_tol])
     n_keys = len(prep.zeno_keys)
     ztimes = np.zeros((max(n_keys, 1), o.zeno_window + 1))
     zcount = np.zeros(max(n_keys, 1), dtype=np.int64)
     sched_done = np.full(max(n_tr, 1), -1, dtype=np.int64)
     m0 = prep.mode_names.index(mode)
-    args = (prep.module.model, ints, reals, opts_i, opts_f, float(t0),
+    args = (prep.module.model, prep.module.box, ints, reals, opts_i, opts_f, float(t0),
             np.ascontiguousarray(x0, dtype=float), m0, float(t_end),
             np.ascontiguousarray(p, dtype=float), prep.n_sig, ztimes, zcount, sched_done)
     out = prep.kernel_entry(args)(*args)
@@ -377,7 +378,8 @@ def _hand_off(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, out
             run.zeno._times[name] = deque(cp_zt[key, :min(count, window)].tolist(),
                                           maxlen=window)
     run.stats.update({"steps": int(kstats[0]), "refinements": int(kstats[1]),
-                      "events_located": int(kstats[2]), "segments": len(segments)})
+                      "events_located": int(kstats[2]), "segments": len(segments),
+                      "quiet_steps": int(kstats[4])})
     triggers = None
     if kind == R_HANDLE:
         triggers = [Trigger(int(r), float(cp_f[0]), bool(g))
@@ -483,7 +485,8 @@ def _result(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, code:
         raise RuntimeError(f"unknown kernel code {code}")
     stats = {"steps": int(kstats[0]), "refinements": int(kstats[1]),
              "events_located": int(kstats[2]), "segments": int(kstats[3]),
-             "backend": "compiled", "compiled_cache_hit": prep.cache_hit}
+             "quiet_steps": int(kstats[4]), "backend": "compiled",
+             "compiled_cache_hit": prep.cache_hit}
     final = FinalState(t, int(j), mode, dict(zip(names, map(float, x), strict=True)))
     parameters = dict(zip(compiled.parameter_names, map(float, p), strict=True))
     return SimulationResult(status, message, events, segments, final, names, zeno_time, stats,

@@ -32,6 +32,7 @@ import math
 import numba
 import numpy as np
 
+from hybridlab.simulation.compiled.bounds import box_workspace, quiet_step
 from hybridlab.simulation.compiled.integrate import (
     N_COEF,
     N_K,
@@ -115,6 +116,16 @@ def _zeno_record(ztimes, zcount, key, t, window, tol, resolution):
 
 
 @numba.njit(cache=True)
+def _zeno_stop(ztimes, zcount, key, t, window, tol, resolution, info):
+    """Record an event of Zeno key ``key``; True, with ``info`` (key, count, ratio,
+    accumulation time) filled, when the events accumulate."""
+    zeno, ratio, acc = _zeno_record(ztimes, zcount, key, t, window, tol, resolution)
+    if zeno:
+        info[0], info[1], info[2], info[3] = key, zcount[key], ratio, acc
+    return zeno
+
+
+@numba.njit(cache=True)
 def _fc(ints, m, slm, W):
     """The flow context of mode ``m`` with the sliding set ``slm`` (see :mod:`.sliding`)."""
     ns = ints[7][m]
@@ -141,9 +152,12 @@ def _log(EV, nev, t, j, ref, source, target, kind, grazing, pre, post):
 
 
 @numba.njit(cache=True)
-def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, ztimes, zcount,
-               sched_done):
+def run_kernel(model, box, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, ztimes,
+               zcount, sched_done):
     """Run from ``(t, x, m)`` to ``t_end``; see the module docstring for the records.
+
+    ``model`` and ``box`` are the generated model's point and box functions
+    (:mod:`.codegen`).
 
     ``ints``: per mode flow/cond/switch/gradient/dsigma group, invariant offset,
     invariants, switches, affine flag, outgoing pointer; the outgoing list; per
@@ -159,8 +173,8 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
      tr_guard, tr_monitored, tr_sched, tr_sched_on, tr_reset, sw_key, tr_zkey, n_cond, _,
      _, _, _) = ints
     period, phase = reals
-    method, samples, max_refine, max_events, max_iter, window = (
-        opts_i[0], opts_i[1], opts_i[2], opts_i[3], opts_i[4], opts_i[5])
+    method, samples, max_refine, max_events, max_iter, window, use_bounds = (
+        opts_i[0], opts_i[1], opts_i[2], opts_i[3], opts_i[4], opts_i[5], opts_i[6])
     rtol, atol, max_step, event_tol, event_atol, zeno_tol = (
         opts_f[0], opts_f[1], opts_f[2], opts_f[3], opts_f[4], opts_f[5])
     n = x.size
@@ -178,6 +192,7 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
     n_cmax = max(np.max(n_cond), 1)
     ws = (np.empty(n), np.empty(n), np.empty(2 * n_cmax), np.empty(n_cmax), np.empty(2 * ns),
           np.empty(ns), np.empty(ns))
+    bx = box_workspace(n, n_cmax, ns)
     gv = np.empty(max(np.max(tr_monitored[n_tr:]) if n_tr else 1, 1))
     gd = np.empty(gv.size)
     mk = np.empty(0, dtype=np.int64)
@@ -185,6 +200,9 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
     mstart = np.empty(0, dtype=np.int64)
     hit_rows = np.empty(0, dtype=np.int64)
     hit_graz = np.zeros(0, dtype=np.bool_)
+    rows = np.empty(0, dtype=np.int64)
+    times = np.empty(0)
+    graz = np.zeros(0, dtype=np.bool_)
     hit_n = 0
     w_sw = ns
     EV = np.empty((64, 7 + 2 * n))
@@ -192,7 +210,8 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
     ST = np.empty((256, 2 + n + nc * n))
     SG = np.empty((64, 6), dtype=np.int64)
     nev, npt, nst, nsg = 0, 0, 0, 0
-    stats = np.zeros(4, dtype=np.int64)  # steps, refinements, events_located, segments
+    # steps, refinements, events_located, segments, steps proven quiet (not sampled)
+    stats = np.zeros(5, dtype=np.int64)
     info = np.zeros(4)
     j = 0
     h_last = -1.0
@@ -280,13 +299,10 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
                             code = MAX_EVENTS
                             stop = True
                             break
-                        key = sw_key[m * w_sw + k]
-                        zeno, ratio, acc = _zeno_record(ztimes, zcount, key, t, window,
-                                                        zeno_tol, 4 * event_tol)
-                        if zeno:
+                        if _zeno_stop(ztimes, zcount, sw_key[m * w_sw + k], t, window,
+                                      zeno_tol, 4 * event_tol, info):
                             last_t, last_m = t, m
                             last_x[:] = x
-                            info[0], info[1], info[2], info[3] = key, zcount[key], ratio, acc
                             code = ZENO
                             stop = True
                             break
@@ -372,13 +388,10 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
                     sched_done[chosen] = _sched_index(period[chosen], phase[chosen],
                                                       sched_done[chosen], t)
                 else:
-                    key = tr_zkey[chosen]
-                    zeno, ratio, acc = _zeno_record(ztimes, zcount, key, t, window,
-                                                    zeno_tol, 4 * event_tol)
-                    if zeno:
+                    if _zeno_stop(ztimes, zcount, tr_zkey[chosen], t, window, zeno_tol,
+                                  4 * event_tol, info):
                         last_t, last_m = t, target
                         last_x[:] = x
-                        info[0], info[1], info[2], info[3] = key, zcount[key], ratio, acc
                         code = ZENO
                         stop = True
                         break
@@ -464,6 +477,7 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
                 mk[r], mref[r], mstart[r], mlen[r] = (EXIT if slm[k] else SWITCH), k, 0, 1
                 r += 1
             md = (fc, cg, mk, mref, mstart, mlen, n_cond[m])
+            bounded = use_bounds != 0 and M > 0
             SG = _grow(SG, nsg)
             SG[nsg, 0], SG[nsg, 1], SG[nsg, 2], SG[nsg, 4] = m, j, npt, nst
             PT = _grow(PT, npt)
@@ -513,9 +527,14 @@ def run_kernel(model, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, zti
                 dense_coefficients(model, method, fc, t_old, h, x, y_new, f_new, p, sig, K,
                                    tmp, coef)
                 step = (method, coef, t_old, h, x, act)
-                nfire, rows, times, graz, armed = scan(
-                    model, md, p, sig, ws, step, armed, has_floor, floors, t_old, t_new,
-                    samples, max_refine, event_tol, event_atol, stats)
+                if bounded and quiet_step(box, md, p, sig, step, t_old, t_new, event_atol,
+                                          armed, bx):
+                    nfire = 0
+                    stats[4] += 1
+                else:
+                    nfire, rows, times, graz, armed = scan(
+                        model, md, p, sig, ws, step, armed, has_floor, floors, t_old, t_new,
+                        samples, max_refine, event_tol, event_atol, stats)
                 if flag[0] != 0:
                     code = HANDOFF
                     break

@@ -1,0 +1,229 @@
+"""Steps proven quiet by interval bounds (``compiled/bounds.py``): sound enclosures, same events.
+
+* every interval function of ``interval_ops`` encloses the point function on its intervals;
+* the generated box ops enclose the point ops of every bundled model at points of the box;
+* ``state_box`` encloses the dense output the sampler evaluates;
+* a run with ``prove_quiet_steps`` has bit for bit the events, final state and status of a
+  run that samples every step, and it does skip steps.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import hybridlab
+
+numba = pytest.importorskip("numba")
+
+from hybridlab.simulation.compiled import interval_ops as iv  # noqa: E402
+from hybridlab.simulation.compiled.backend import prepare  # noqa: E402
+from hybridlab.simulation.compiled.bounds import OP_COND_BOX, OP_SWITCH_BOX, state_box  # noqa: E402
+from hybridlab.simulation.compiled.codegen import OP_COND, OP_SWITCH  # noqa: E402
+from hybridlab.simulation.compiled.integrate import DOP853 as DOP853_CODE  # noqa: E402
+from hybridlab.simulation.compiled.integrate import RK45 as RK45_CODE  # noqa: E402
+from hybridlab.simulation.compiled.integrate import dense_eval  # noqa: E402
+
+_floats = st.floats(-50.0, 50.0, allow_nan=False)
+
+
+def _interval(draw_pair):
+    a, b = draw_pair
+    return (a, b) if a <= b else (b, a)
+
+
+_intervals = st.tuples(_floats, _floats).map(_interval)
+
+_UNARY = [(iv.i_sin, math.sin, None), (iv.i_cos, math.cos, None),
+          (iv.i_exp, math.exp, (-50.0, 30.0)), (iv.i_log, math.log, (1e-3, 50.0)),
+          (iv.i_sqrt, math.sqrt, (0.0, 50.0)), (iv.i_abs, abs, None),
+          (iv.i_atan, math.atan, None), (iv.i_tanh, math.tanh, None),
+          (iv.i_sinh, math.sinh, (-20.0, 20.0)), (iv.i_cosh, math.cosh, (-20.0, 20.0)),
+          (iv.i_asin, math.asin, (-1.0, 1.0)), (iv.i_acos, math.acos, (-1.0, 1.0)),
+          (iv.i_sign, lambda v: 0.0 if v == 0 else math.copysign(1.0, v), None),
+          (iv.i_neg, lambda v: -v, None)]
+_BINARY = [(iv.i_add, lambda a, b: a + b), (iv.i_sub, lambda a, b: a - b),
+           (iv.i_mul, lambda a, b: a * b), (iv.i_div, lambda a, b: a / b),
+           (iv.i_min, min), (iv.i_max, max)]
+
+
+def _points(lo, hi, k=9):
+    return [lo, hi, *np.linspace(lo, hi, k)[1:-1]]
+
+
+@settings(max_examples=150, deadline=None)
+@given(box=_intervals, which=st.integers(0, len(_UNARY) - 1))
+def test_unary_interval_functions_enclose_the_point_function(box, which):
+    fn, point, domain = _UNARY[which]
+    lo, hi = box
+    if domain is not None:
+        lo, hi = np.clip([lo, hi], *domain)
+    out_lo, out_hi = fn(lo, hi)
+    assert out_lo <= out_hi
+    for v in _points(lo, hi, 101):
+        assert out_lo <= point(v) <= out_hi
+
+
+@settings(max_examples=150, deadline=None)
+@given(a=_intervals, b=_intervals, which=st.integers(0, len(_BINARY) - 1))
+def test_binary_interval_functions_enclose_the_point_function(a, b, which):
+    fn, point = _BINARY[which]
+    out_lo, out_hi = fn(*a, *b)
+    if fn is iv.i_div and a and b[0] <= 0.0 <= b[1]:
+        assert (out_lo, out_hi) == (-math.inf, math.inf)
+        return
+    for u in _points(*a):
+        for v in _points(*b):
+            assert out_lo <= point(u, v) <= out_hi
+
+
+@settings(max_examples=100, deadline=None)
+@given(a=st.tuples(st.floats(-3.0, 3.0), st.floats(-3.0, 3.0)).map(_interval),
+       k=st.integers(-4, 5))
+def test_integer_powers_enclose_the_point_power(a, k):
+    lo, hi = iv.i_powi(*a, k)
+    with np.errstate(over="ignore", divide="ignore"):
+        for v in _points(*a, 41):
+            if v == 0.0 and k < 0:
+                continue
+            assert lo <= np.float64(v) ** k <= hi
+
+
+def test_out_of_domain_and_non_finite_operands_give_the_whole_line():
+    entire = (-math.inf, math.inf)
+    assert iv.i_log(-1.0, 2.0) == entire
+    assert iv.i_sqrt(-1e-300, 1.0) == entire
+    assert iv.i_asin(-1.5, 0.0) == entire
+    assert iv.i_div(1.0, 2.0, -1.0, 1.0) == entire
+    assert iv.i_add(math.nan, 1.0, 0.0, 1.0) == entire
+    assert iv.i_mul(0.0, 0.0, -math.inf, math.inf) == entire
+    assert iv.i_entire() == entire
+
+
+def test_sin_and_cos_reach_their_extrema_inside_an_interval():
+    assert iv.i_sin(1.0, 2.0)[1] >= 1.0  # pi/2 inside
+    assert iv.i_sin(1.0, 1.5)[1] < 1.0
+    assert iv.i_cos(3.0, 3.2)[0] <= -1.0  # pi inside
+    assert iv.i_cos(-0.1, 0.1)[1] >= 1.0
+
+
+# ---------------------------------------------------------------- generated box ops
+
+_MODELS = ["bouncing_ball", "thermostat", "relay_sliding",
+           "friction_oscillator", "trolley"]
+_PTR = ctypes.POINTER(ctypes.c_double)
+
+
+def _call(model, op, group, t, x, p, sigma, f, out):
+    model.ctypes(op, group, t, *(a.ctypes.data_as(_PTR) for a in (x, p, sigma, f, out)))
+
+
+@pytest.mark.parametrize("name", _MODELS)
+def test_box_ops_enclose_the_point_ops_of_every_bundled_model(models_dir, name):
+    compiled = hybridlab.compile_model(hybridlab.load_model(models_dir / f"{name}.toml"))
+    prep = prepare(compiled)
+    model, box_model = prep.module.model, prep.module.box
+    p = compiled.parameter_vector()
+    x0 = compiled.state_vector()
+    n = x0.size
+    rng = np.random.default_rng(7)
+    checked = 0
+    for mi, mode in enumerate(compiled.modes.values()):
+        groups = [(OP_COND_BOX, OP_COND, prep.source.cond_group[mi],
+                   0 if mode.conditions is None else mode.conditions.size),
+                  (OP_SWITCH_BOX, OP_SWITCH, prep.source.switch_group[mi], len(mode.switches))]
+        sigma = rng.choice([-1.0, 1.0], size=max(len(mode.switches), 1))
+        for box_op, op, group, k in groups:
+            if group < 0 or k == 0:
+                continue
+            for _ in range(20):
+                center = x0 + rng.normal(scale=1.0, size=n)
+                half = np.abs(rng.normal(scale=0.1, size=n)) * rng.integers(0, 2, size=n)
+                box = np.concatenate([center - half, center + half])
+                t_box = np.sort(rng.uniform(0.0, 5.0, size=2))
+                bounds = np.empty(2 * k)
+                _call(box_model, box_op, group, 0.0, box, p, sigma, t_box, bounds)
+                for _ in range(10):
+                    x = center + half * rng.uniform(-1.0, 1.0, size=n)
+                    t = rng.uniform(*t_box)
+                    value = np.empty(k)
+                    _call(model, op, group, t, x, p, sigma, np.zeros(n), value)
+                    finite = np.isfinite(value)
+                    assert np.all(bounds[:k][finite] <= value[finite])
+                    assert np.all(value[finite] <= bounds[k:][finite])
+                    checked += 1
+    assert checked > 0
+
+
+# ---------------------------------------------------------------- the state box
+
+
+@settings(max_examples=100, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), rk45=st.booleans(), scale=st.floats(1e-6, 1e3))
+def test_state_box_encloses_the_dense_output(seed, rk45, scale):
+    rng = np.random.default_rng(seed)
+    method = RK45_CODE if rk45 else DOP853_CODE
+    nco = 4 if rk45 else 7
+    n = 3
+    coef = rng.normal(scale=scale, size=(nco, n)) * rng.uniform(0, 1, size=(nco, 1)) ** 3
+    y_old = rng.normal(scale=scale, size=n)
+    h = float(rng.uniform(1e-4, 1.0))
+    act = np.array([0, 2])  # state 1 keeps its value
+    coef[:, 1] = 0.0
+    box = np.empty(2 * n)
+    state_box(method, coef, h, y_old, act, box)
+    out = np.empty(n)
+    for t in np.linspace(10.0, 10.0 + h, 33):
+        dense_eval(method, coef, 10.0, h, y_old, act, t, out)
+        assert np.all(box[:n] <= out) and np.all(out <= box[n:])
+    assert box[1] == box[n + 1] == y_old[1]
+
+
+# ---------------------------------------------------------------- same events, fewer samples
+
+_RUNS = [("bouncing_ball", "benchmark", {}), ("bouncing_ball", "zeno", {}),
+         ("thermostat", None, {}), ("sampled_control", None, {}),
+         ("relay_sliding", "escape", {}), ("friction_oscillator", None, {}),
+         ("trolley", "default", {}), ("trolley", "free_drop_nominal", {"t_end": 10.0}),
+         ("trolley", "jerk_limited", {})]
+
+
+def _record(result):
+    return ([(e.t, e.j, e.transition, e.kind, e.grazing, tuple(e.pre.values()),
+              tuple(e.post.values())) for e in result.events],
+            result.status, result.final)
+
+
+@pytest.mark.parametrize("method", ["DOP853", "RK45"])
+@pytest.mark.parametrize(("name", "scenario", "extra"), _RUNS)
+def test_quiet_steps_change_no_event(models_dir, name, scenario, extra, method):
+    compiled = hybridlab.compile_model(hybridlab.load_model(models_dir / f"{name}.toml"))
+    kw = {"backend": "compiled", "method": method, **extra}
+    if scenario:
+        kw["scenario"] = scenario
+    sampled = hybridlab.simulate(compiled, prove_quiet_steps=False, **kw)
+    proven = hybridlab.simulate(compiled, **kw)
+    assert _record(proven) == _record(sampled)
+    assert proven.stats["steps"] == sampled.stats["steps"]
+    assert sampled.stats["quiet_steps"] == 0
+    if name in ("bouncing_ball", "trolley"):
+        assert 0 < proven.stats["quiet_steps"] < proven.stats["steps"]
+
+
+def test_a_monitor_without_an_interval_version_is_always_sampled(tmp_path):
+    # tan has no enclosure: the guard is the whole line and no step is skipped
+    path = tmp_path / "m.toml"
+    path.write_text('name = "m"\n[states]\nx = { initial = 0.0 }\n'
+                    '[modes.a]\nflow = { x = "1" }\n[modes.b]\nflow = { x = "1" }\n'
+                    '[[transitions]]\nname = "go"\nsource = "a"\ntarget = "b"\n'
+                    'guard = "tan(x/4) >= 0.9"\n'
+                    '[initial]\nmode = "a"\n')
+    compiled = hybridlab.compile_model(hybridlab.load_model(path))
+    result = hybridlab.simulate(compiled, t_end=5.0, backend="compiled")
+    assert result.stats["quiet_steps"] == 0
+    assert result.events[0].t == pytest.approx(4.0 * math.atan(0.9), abs=1e-9)
