@@ -227,3 +227,62 @@ def test_a_monitor_without_an_interval_version_is_always_sampled(tmp_path):
     result = hybridlab.simulate(compiled, t_end=5.0, backend="compiled")
     assert result.stats["quiet_steps"] == 0
     assert result.events[0].t == pytest.approx(4.0 * math.atan(0.9), abs=1e-9)
+
+
+def _random_model(seed: int) -> str:
+    """A two-mode forced oscillator with nonlinear guards, a bounce and Coulomb friction."""
+    rng = np.random.default_rng(seed)
+    a, b, c, d, e, f, g = (float(v) for v in rng.uniform(0.2, 1.5, size=7))
+    return f"""name = "fuzz{seed}"
+[parameters]
+w = {{ value = {1.0 + a:.6f} }}
+damp = {{ value = {0.05 * b:.6f} }}
+force = {{ value = {1.5 * c:.6f} }}
+mu = {{ value = {0.3 * d:.6f} }}
+level = {{ value = {0.3 * e:.6f} }}
+window = {{ value = {0.2 * f:.6f} }}
+wall = {{ value = {1.0 + g:.6f} }}
+[states]
+x = {{ initial = {float(rng.uniform(-1, 1)):.6f} }}
+y = {{ initial = {float(rng.uniform(-1, 1)):.6f} }}
+z = {{ initial = 0.0 }}
+[modes.free]
+flow = {{ x = "y", y = "-w**2*x - damp*y + force*sin(1.3*t)", z = "1" }}
+[modes.rough]
+flow = {{ x = "y", y = "-w**2*x - mu*sign(y) + force*cos(0.7*t)", z = "1" }}
+invariant = ["z <= 40"]
+[[transitions]]
+name = "catch"
+source = "free"
+target = "rough"
+guard = ["sin(x)*exp(-0.1*z) + 0.3*y*abs(y) >= level", "z >= 1"]
+reset = {{ z = "0" }}
+[[transitions]]
+name = "release"
+source = "rough"
+target = "free"
+guard = ["abs(x - 0.2) <= window", "cos(y) >= 0.9", "z >= 2"]
+reset = {{ z = "0" }}
+[[transitions]]
+name = "bounce"
+source = "*"
+target = "*"
+guard = ["x >= wall", "y >= 0"]
+reset = {{ y = "-0.8*y" }}
+[initial]
+mode = "free"
+"""
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_quiet_steps_change_no_event_on_random_models(tmp_path, seed):
+    path = tmp_path / f"fuzz{seed}.toml"
+    path.write_text(_random_model(seed))
+    compiled = hybridlab.compile_model(hybridlab.load_model(path))
+    kw = {"t_end": 60.0, "backend": "compiled", "rtol": 1e-7, "atol": 1e-9}
+    sampled = hybridlab.simulate(compiled, prove_quiet_steps=False, **kw)
+    proven = hybridlab.simulate(compiled, **kw)
+    assert proven.stats["backend"] == "compiled"
+    assert len(sampled.events) > 5
+    assert _record(proven) == _record(sampled)
+    assert 0 < proven.stats["quiet_steps"] < proven.stats["steps"]

@@ -17,6 +17,8 @@ from hybridlab.symbolic.compile import CompiledModel
 
 __all__ = ["simulate"]
 
+_DEFAULTS = SimulationOptions()  # frozen: shared by every call that passes no options
+
 
 def simulate(
     model: Model | CompiledModel | str | Path,
@@ -107,7 +109,7 @@ def simulate(
             value = getattr(sc, name)
         if value is not None:
             settings[name] = value
-    base = options or SimulationOptions()
+    base = options or _DEFAULTS
     unknown = set(settings) - set(SimulationOptions.__dataclass_fields__)
     if unknown:
         raise TypeError(f"simulate() got unknown option(s): {', '.join(sorted(unknown))}")
