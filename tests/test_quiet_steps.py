@@ -23,8 +23,13 @@ numba = pytest.importorskip("numba")
 
 from hybridlab.simulation.compiled import interval_ops as iv  # noqa: E402
 from hybridlab.simulation.compiled.backend import prepare  # noqa: E402
-from hybridlab.simulation.compiled.bounds import OP_COND_BOX, OP_SWITCH_BOX, state_box  # noqa: E402
-from hybridlab.simulation.compiled.codegen import OP_COND, OP_SWITCH  # noqa: E402
+from hybridlab.simulation.compiled.bounds import (  # noqa: E402
+    OP_GUARD_BOX,
+    OP_INV_BOX,
+    OP_SWITCH_BOX,
+    state_box,
+)
+from hybridlab.simulation.compiled.codegen import OP_GUARD, OP_SWITCH  # noqa: E402
 from hybridlab.simulation.compiled.integrate import DOP853 as DOP853_CODE  # noqa: E402
 from hybridlab.simulation.compiled.integrate import RK45 as RK45_CODE  # noqa: E402
 from hybridlab.simulation.compiled.integrate import dense_eval  # noqa: E402
@@ -123,6 +128,19 @@ def _call(model, op, group, t, x, p, sigma, f, out):
     model.ctypes(op, group, t, *(a.ctypes.data_as(_PTR) for a in (x, p, sigma, f, out)))
 
 
+def _groups(compiled, source):
+    """Every box op of the model: ``(box op, point op, group, outputs, mode)``; invariants
+    have no point op of their own (they are rows of the modes' conditions)."""
+    for tr in compiled.transitions:
+        if tr.guard is not None:
+            yield OP_GUARD_BOX, OP_GUARD, source.guard_group[tr.index], tr.guard.size, None
+    for mi, mode in enumerate(compiled.modes.values()):
+        if mode.invariants.size:
+            yield OP_INV_BOX, None, source.invariant_group[mi], mode.invariants.size, mode
+        if mode.switches:
+            yield OP_SWITCH_BOX, OP_SWITCH, source.switch_group[mi], len(mode.switches), mode
+
+
 @pytest.mark.parametrize("name", _MODELS)
 def test_box_ops_enclose_the_point_ops_of_every_bundled_model(models_dir, name):
     compiled = hybridlab.compile_model(hybridlab.load_model(models_dir / f"{name}.toml"))
@@ -133,30 +151,27 @@ def test_box_ops_enclose_the_point_ops_of_every_bundled_model(models_dir, name):
     n = x0.size
     rng = np.random.default_rng(7)
     checked = 0
-    for mi, mode in enumerate(compiled.modes.values()):
-        groups = [(OP_COND_BOX, OP_COND, prep.source.cond_group[mi],
-                   0 if mode.conditions is None else mode.conditions.size),
-                  (OP_SWITCH_BOX, OP_SWITCH, prep.source.switch_group[mi], len(mode.switches))]
-        sigma = rng.choice([-1.0, 1.0], size=max(len(mode.switches), 1))
-        for box_op, op, group, k in groups:
-            if group < 0 or k == 0:
-                continue
-            for _ in range(20):
-                center = x0 + rng.normal(scale=1.0, size=n)
-                half = np.abs(rng.normal(scale=0.1, size=n)) * rng.integers(0, 2, size=n)
-                box = np.concatenate([center - half, center + half])
-                t_box = np.sort(rng.uniform(0.0, 5.0, size=2))
-                bounds = np.empty(2 * k)
-                _call(box_model, box_op, group, 0.0, box, p, sigma, t_box, bounds)
-                for _ in range(10):
-                    x = center + half * rng.uniform(-1.0, 1.0, size=n)
-                    t = rng.uniform(*t_box)
+    for box_op, op, group, k, mode in _groups(compiled, prep.source):
+        sigma = rng.choice([-1.0, 1.0], size=max(k, 1))
+        for _ in range(20):
+            center = x0 + rng.normal(scale=1.0, size=n)
+            half = np.abs(rng.normal(scale=0.1, size=n)) * rng.integers(0, 2, size=n)
+            box = np.concatenate([center - half, center + half])
+            t_box = np.sort(rng.uniform(0.0, 5.0, size=2))
+            bounds = np.empty(2 * k)
+            _call(box_model, box_op, group, 0.0, box, p, sigma, t_box, bounds)
+            for _ in range(10):
+                x = center + half * rng.uniform(-1.0, 1.0, size=n)
+                t = rng.uniform(*t_box)
+                if op is None:  # invariants: the point values from the reference's functions
+                    value = np.asarray(mode.invariants.values(t, x, p, np.empty(0)), dtype=float)
+                else:
                     value = np.empty(k)
                     _call(model, op, group, t, x, p, sigma, np.zeros(n), value)
-                    finite = np.isfinite(value)
-                    assert np.all(bounds[:k][finite] <= value[finite])
-                    assert np.all(value[finite] <= bounds[k:][finite])
-                    checked += 1
+                finite = np.isfinite(value)
+                assert np.all(bounds[:k][finite] <= value[finite])
+                assert np.all(value[finite] <= bounds[k:][finite])
+                checked += 1
     assert checked > 0
 
 
@@ -172,14 +187,18 @@ def test_state_box_encloses_the_dense_output(seed, rk45, scale):
     n = 3
     coef = rng.normal(scale=scale, size=(nco, n)) * rng.uniform(0, 1, size=(nco, 1)) ** 3
     y_old = rng.normal(scale=scale, size=n)
-    h = float(rng.uniform(1e-4, 1.0))
+    # as the integrator makes a step: h is the difference of the two (rounded) ends, so every
+    # time of the step has its abscissa (t - t_old) / h in [0, 1]
+    t_old = 10.0
+    t_new = t_old + float(rng.uniform(1e-4, 1.0))
+    h = t_new - t_old
     act = np.array([0, 2])  # state 1 keeps its value
     coef[:, 1] = 0.0
     box = np.empty(2 * n)
     state_box(method, coef, h, y_old, act, box)
     out = np.empty(n)
-    for t in np.linspace(10.0, 10.0 + h, 33):
-        dense_eval(method, coef, 10.0, h, y_old, act, t, out)
+    for t in np.linspace(t_old, t_new, 33):
+        dense_eval(method, coef, t_old, h, y_old, act, t, out)
         assert np.all(box[:n] <= out) and np.all(out <= box[n:])
     assert box[1] == box[n + 1] == y_old[1]
 

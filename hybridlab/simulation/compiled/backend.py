@@ -290,7 +290,8 @@ def prepare(compiled: CompiledModel) -> Prepared:
         [int(tr.scheduled) for tr in compiled.transitions] or [0],
         [0] * max(n_tr, 1), list(source.reset_group) or [0], sw_key, tr_zkey or [0],
         [md.conditions.size if md.conditions is not None else 0 for md in modes],
-        source.slide_group, source.switch_free, *active_states(compiled)))
+        source.slide_group, source.switch_free, *active_states(compiled),
+        source.invariant_group))
     unscheduled = None
     if all(tr.schedule is None for tr in compiled.transitions):
         # (not flagged read-only: numba would type, and compile, the kernel anew for that)

@@ -30,17 +30,20 @@ from hybridlab.simulation.compiled.integrate import RK45
 from hybridlab.simulation.compiled.locate import GUARD, INVARIANT, SWITCH
 from hybridlab.simulation.compiled.signatures import ptr
 
-__all__ = ["state_box", "quiet_step", "box_workspace", "OP_COND_BOX", "OP_SWITCH_BOX"]
+__all__ = ["state_box", "quiet_step", "box_workspace", "OP_GUARD_BOX", "OP_INV_BOX",
+           "OP_SWITCH_BOX"]
 
-OP_COND_BOX, OP_SWITCH_BOX = 13, 14
+OP_GUARD_BOX, OP_INV_BOX, OP_SWITCH_BOX = 13, 14, 15
 _WIDEN = 2.0 ** -46  # as interval_ops: 64 units in the last place
 _TINY = 1e-300
 
 
 @numba.njit(cache=True)
 def box_workspace(n, n_cond, n_sig):
-    """Buffers for :func:`quiet_step`: states ``[lo | hi]``, time, conditions, switches."""
-    return np.empty(2 * n), np.empty(2), np.empty(2 * max(n_cond, 1)), np.empty(2 * max(n_sig, 1))
+    """Buffers for :func:`quiet_step`: states ``[lo | hi]``, time, and the bounds of a
+    guard's rows, of the invariants and of the switching functions."""
+    return (np.empty(2 * n), np.empty(2), np.empty(2 * max(n_cond, 1)),
+            np.empty(2 * max(n_cond, 1)), np.empty(2 * max(n_sig, 1)))
 
 
 @numba.njit(cache=True)
@@ -89,20 +92,23 @@ def state_box(method, coef, h, y_old, act, box):
 
 
 @numba.njit(cache=True)
-def quiet_step(box_model, md, p, sig, step, t0, t1, tol, armed, bx):
+def quiet_step(box_model, md, p, sig, step, t0, t1, tol, armed, bx, guard_group, inv_group):
     """Whether no monitor can reach ``tol`` on ``[t0, t1]`` of the step (then arm them all).
 
     ``box_model`` is the generated model's box function; ``md`` and ``step``
     are the monitor table and step tuple of :func:`.locate.scan`; ``bx``
-    comes from :func:`box_workspace`.
+    comes from :func:`box_workspace`; ``guard_group`` is the box group of each
+    transition's guard and ``inv_group`` that of the mode's invariants. The
+    monitors are bounded one by one and the first that cannot be proven ends
+    the attempt.
     """
-    fc, cg, mk, mref, mstart, mlen, nc = md
+    fc, _, mk, mref, _, mlen, _ = md
     method, coef, _, h, y_old, act = step
-    box, tb, cb, sb = bx
+    box, tb, gb, ib, sb = bx
     m = fc[4]
     sg = fc[1]
     for r in range(mk.size):
-        # a sliding exit has no enclosure; a disarmed monitor re-arms by the samples' rule
+        # a sliding exit has no enclosure
         if mk[r] != GUARD and mk[r] != INVARIANT and mk[r] != SWITCH:
             return False
         if mk[r] == SWITCH and sig[mref[r]] == 0.0:
@@ -110,20 +116,27 @@ def quiet_step(box_model, md, p, sig, step, t0, t1, tol, armed, bx):
     state_box(method, coef, h, y_old, act, box)
     tb[0] = t0 - (_WIDEN * abs(t0) + _TINY)
     tb[1] = t1 + (_WIDEN * abs(t1) + _TINY)
-    if cg >= 0:
-        box_model(OP_COND_BOX, cg, t0, ptr(box), ptr(p), ptr(sig), ptr(tb), ptr(cb))
-    if sg >= 0:
-        box_model(OP_SWITCH_BOX, sg, t0, ptr(box), ptr(p), ptr(sig), ptr(tb), ptr(sb))
+    invariants = switches = False
     for r in range(mk.size):
         kind = mk[r]
         if kind == GUARD:
             # the guard's value is max_i(-g_i): above -g_i's lower bound for every row i
+            box_model(OP_GUARD_BOX, guard_group[mref[r]], t0, ptr(box), ptr(p), ptr(sig),
+                      ptr(tb), ptr(gb))
             lo = -np.inf
-            for q in range(mstart[r], mstart[r] + mlen[r]):
-                lo = max(lo, -cb[nc + q])
+            for q in range(mlen[r]):
+                lo = max(lo, -gb[mlen[r] + q])
         elif kind == INVARIANT:
-            lo = cb[mstart[r]]
+            if not invariants:
+                box_model(OP_INV_BOX, inv_group, t0, ptr(box), ptr(p), ptr(sig), ptr(tb),
+                          ptr(ib))
+                invariants = True
+            lo = ib[mref[r]]
         else:
+            if not switches:
+                box_model(OP_SWITCH_BOX, sg, t0, ptr(box), ptr(p), ptr(sig), ptr(tb),
+                          ptr(sb))
+                switches = True
             s = sig[mref[r]]
             lo = s * sb[mref[r]] if s > 0 else s * sb[m + mref[r]]
         if not lo > tol:

@@ -9,10 +9,12 @@ body of a single scalar-loop function::
 
 ``op`` selects the kind of function (:data:`OP_FLOW` ...), ``group`` which
 one (modes and transitions that share a function share a group). The *box*
-ops (:data:`OP_COND_BOX`, :data:`OP_SWITCH_BOX`) enclose the condition and
-switching-function values over a box: ``x`` then holds the states' lower
-bounds followed by their upper bounds, ``f`` the time interval, and ``out``
-receives lower bounds followed by upper bounds (:mod:`.box_printer`). All array
+ops (:data:`OP_GUARD_BOX`, :data:`OP_INV_BOX`, :data:`OP_SWITCH_BOX`) enclose
+a transition's guard rows, a mode's invariants and its switching functions
+over a box: ``x`` then holds the states' lower bounds followed by their upper
+bounds, ``f`` the time interval, and ``out`` receives lower bounds followed by
+upper bounds (:mod:`.box_printer`). They are a second function, ``box``, so
+that ``model`` stays as small as it is without them. All array
 arguments are raw ``float64`` pointers, so the kernel of
 :mod:`hybridlab.simulation.compiled.kernel` is compiled once for every model
 and calls the model through one first-class function pointer. The source is
@@ -35,8 +37,8 @@ from hybridlab.symbolic.compile import CompiledModel
 
 __all__ = ["OP_FLOW", "OP_COND", "OP_COND_LIE", "OP_SWITCH", "OP_SWITCH_LIE", "OP_RESET",
            "OP_GUARD", "OP_GUARD_LIE", "OP_SWITCH_GRAD", "OP_FLOW_DSIGMA", "OP_SLIDE_PARTS",
-           "OP_COND_BOTH", "OP_SWITCH_BOTH", "OP_COND_BOX", "OP_SWITCH_BOX", "ModelSource",
-           "UnsupportedModel", "generate", "active_states"]
+           "OP_COND_BOTH", "OP_SWITCH_BOTH", "OP_GUARD_BOX", "OP_INV_BOX", "OP_SWITCH_BOX",
+           "ModelSource", "UnsupportedModel", "generate", "active_states"]
 
 OP_FLOW, OP_COND, OP_COND_LIE, OP_SWITCH, OP_SWITCH_LIE, OP_RESET, OP_GUARD, OP_GUARD_LIE = \
     range(8)
@@ -47,10 +49,13 @@ OP_SWITCH_GRAD, OP_FLOW_DSIGMA = 8, 9
 #: condition values and Lie derivatives (``[g | dg/dt]``, cond groups); switch values and
 #: Lie derivatives (``[s | ds/dt]``, switch groups)
 OP_SLIDE_PARTS, OP_COND_BOTH, OP_SWITCH_BOTH = 10, 11, 12
-#: enclosures over a box (same groups as OP_COND / OP_SWITCH): ``out = [lower | upper]``
-OP_COND_BOX, OP_SWITCH_BOX = 13, 14
-_N_OPS = 15
-_BOX_OF = {OP_COND_BOX: OP_COND, OP_SWITCH_BOX: OP_SWITCH}
+#: enclosures over a box, ``out = [lower | upper]``: a transition's guard rows (the groups of
+#: OP_GUARD), a mode's invariants (groups of their own) and its switching functions (the
+#: groups of OP_SWITCH)
+OP_GUARD_BOX, OP_INV_BOX, OP_SWITCH_BOX = 13, 14, 15
+_N_OPS = 16
+_BOX_OF = {OP_GUARD_BOX: OP_GUARD, OP_SWITCH_BOX: OP_SWITCH}
+_BOX_OPS = (OP_GUARD_BOX, OP_INV_BOX, OP_SWITCH_BOX)
 #: the generated module's name hashes its text: this digest makes it change with the
 #: interval functions it calls
 _INTERVAL_DIGEST = hashlib.sha256(
@@ -91,6 +96,8 @@ class ModelSource:
     switch_free : tuple of int
         Per mode: 1 when its switching functions do not depend on the signs
         (their gradient and time derivative are the same for every sigma).
+    invariant_group : tuple of int
+        Per mode: the group of its invariants' box op (-1: none).
     reset_group, guard_group : tuple of int
         Per transition: the group of its reset and of its guard (-1: none).
     """
@@ -105,6 +112,7 @@ class ModelSource:
     dsigma_group: tuple[int, ...] = ()
     slide_group: tuple[int, ...] = ()
     switch_free: tuple[int, ...] = ()
+    invariant_group: tuple[int, ...] = ()
 
 
 def _body(exprs: Sequence[sp.Expr], names: dict[sp.Symbol, str], indent: str) -> list[str]:
@@ -195,7 +203,7 @@ def generate(compiled: CompiledModel) -> ModelSource:
     flow_syms = [sp.Symbol(f"_f{i}", real=True) for i in range(len(sym.states))]
     with_f = {**base, **{s: f"f[{i}]" for i, s in enumerate(flow_syms)}}
     ops = [_Groups() for _ in range(_N_OPS)]
-    flow_g, cond_g, switch_g, grad_g, dsig_g, slide_g, free = [], [], [], [], [], [], []
+    flow_g, cond_g, switch_g, grad_g, dsig_g, slide_g, free, inv_g = ([] for _ in range(8))
     for mode in compiled.modes.values():
         sig = {s.symbol: f"sigma[{k}]" for k, s in enumerate(mode.switches)}
         flow_g.append(ops[OP_FLOW].add(mode.flow.exprs, {**base, **sig}))
@@ -205,6 +213,8 @@ def generate(compiled: CompiledModel) -> ModelSource:
                 (ops[OP_COND_LIE], mode.conditions._lie.exprs, with_f)))
         else:
             cond_g.append(-1)
+        inv_g.append(ops[OP_INV_BOX].add(mode.invariants.values.exprs, base)
+                     if mode.invariants.size else -1)
         if mode.switches:
             switch_g.append(ops[OP_SWITCH].add(
                 mode.switch_fields.values.exprs, {**base, **sig},
@@ -256,8 +266,8 @@ def generate(compiled: CompiledModel) -> ModelSource:
         "    return 0.0 if v == 0 else math.copysign(1.0, v)",
     ]
     n = len(sym.states)
-    for function, wanted in (("model", lambda op: op not in _BOX_OF),
-                             ("box", _BOX_OF.__contains__)):
+    for function, wanted in (("model", lambda op: op not in _BOX_OPS),
+                             ("box", _BOX_OPS.__contains__)):
         # two functions: the point ops stay as small as they were without the box ops
         lines += ["", "", "@numba.cfunc(MODEL_SIGNATURE, cache=True, error_model='numpy')",
                   f"def {function}(op, group, t, x, p, sigma, f, out):"]
@@ -269,7 +279,7 @@ def generate(compiled: CompiledModel) -> ModelSource:
             first_op = False
             for g, (exprs, names) in enumerate(groups.bodies):
                 lines.append(f"        {'if' if g == 0 else 'elif'} group == {g}:")
-                if op in _BOX_OF:
+                if op in _BOX_OPS:
                     body = box_body(exprs, _box_symbols(names, n), " " * 12)
                 else:
                     body = _body(exprs, names, " " * 12)
@@ -278,7 +288,7 @@ def generate(compiled: CompiledModel) -> ModelSource:
             lines.append("    pass")
     return ModelSource("\n".join(lines) + "\n", tuple(flow_g), tuple(cond_g), tuple(switch_g),
                        tuple(reset_g), tuple(guard_g), tuple(grad_g), tuple(dsig_g),
-                       tuple(slide_g), tuple(free))
+                       tuple(slide_g), tuple(free), tuple(inv_g))
 
 
 def active_states(compiled: CompiledModel) -> tuple[list[int], list[int]]:

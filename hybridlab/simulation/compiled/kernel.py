@@ -165,13 +165,14 @@ def run_kernel(model, box, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig
     (0/1), schedule enabled (0/1), reset group; per mode and switch the Zeno key;
     per transition the Zeno key; per mode the condition rows, the fused sliding
     group and whether its switching functions are free of sigma; per mode a pointer
-    into the list of its active states, and that list. ``reals``: per
+    into the list of its active states, and that list; per mode the box group of its
+    invariants. ``reals``: per
     transition period, phase. Returns the records, the final run state and the
     checkpoint (meaningful for :data:`HANDOFF`).
     """
     (fgs, cgs, sgs, ggs, dgs, inv_off, n_inv, n_sw, affine, out_ptr, out_list, tr_target,
      tr_guard, tr_monitored, tr_sched, tr_sched_on, tr_reset, sw_key, tr_zkey, n_cond, _,
-     _, _, _) = ints
+     _, _, _, inv_box) = ints
     period, phase = reals
     method, samples, max_refine, max_events, max_iter, window, use_bounds = (
         opts_i[0], opts_i[1], opts_i[2], opts_i[3], opts_i[4], opts_i[5], opts_i[6])
@@ -528,7 +529,7 @@ def run_kernel(model, box, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig
                                    tmp, coef)
                 step = (method, coef, t_old, h, x, act)
                 if bounded and quiet_step(box, md, p, sig, step, t_old, t_new, event_atol,
-                                          armed, bx):
+                                          armed, bx, tr_guard, inv_box[m]):
                     nfire = 0
                     stats[4] += 1
                 else:
