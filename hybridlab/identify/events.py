@@ -96,9 +96,11 @@ def edges_from_result(result: SimulationResult, sensors: SensorMap) -> SensorEve
     for sensor, (rising, falling) in sensors.items():
         lookup[rising] = (sensor, "rising")
         lookup[falling] = (sensor, "falling")
-    hits = [(e.t, *lookup[e.transition]) for e in result.jumps if e.transition in lookup]
-    return SensorEvents(tuple(h[1] for h in hits), np.array([h[0] for h in hits], dtype=float),
-                        tuple(h[2] for h in hits))
+    # columns of the event table: no Event object is made (this runs once per fit evaluation)
+    hits = result.jumps.where(transition=list(lookup))
+    names = hits.transition
+    return SensorEvents(tuple(lookup[name][0] for name in names),
+                        np.asarray(hits.t, dtype=float), tuple(lookup[name][1] for name in names))
 
 
 def passages(events: SensorEvents, pair: tuple[str, str], max_pair_gap: float) -> Passages:

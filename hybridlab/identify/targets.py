@@ -289,7 +289,7 @@ def _sample_times(target: Target, result: SimulationResult) -> np.ndarray:
 
 def _events(target: Target, result: SimulationResult, observers: _Observers) -> Crossings:
     if target.transition is not None:
-        t = np.array([e.t for e in result.jumps if e.transition == target.transition])
+        t = np.asarray(result.jumps.where(transition=target.transition).t, dtype=float)
         return Crossings(t, np.ones(len(t), dtype=int), np.full(len(t) + 1, np.nan),
                          float(result.t[0]), float(result.t[-1]))
     t = _sample_times(target, result)
