@@ -7,11 +7,14 @@ prints the time of each, how many steps interval bounds proved free of
 events, and checks that
 
 * the kernel and the reference fire the same transitions in the same order,
-  the jumps within 1e-9 s of each other;
+  the jumps within 1e-8 s of each other (measured: under 1e-9 s; the exits
+  from the cart's stick phases before some of them are ill-conditioned, see
+  ``docs/semantics.md``, Backends);
 * proving steps quiet changes nothing: the same events, bit for bit.
 
-Without numba (the ``fast`` extra) the "compiled" runs fall back to the
-reference engine; the script says so and its checks still hold.
+The kernel runs use ``backend="auto"``: without numba (the ``fast`` extra)
+that is the reference engine, which the script reports; its checks still
+hold.
 
 Usage::
 
@@ -50,8 +53,8 @@ def main(argv: list[str] | None = None) -> int:
 
     compiled = hybridlab.compile_model(hybridlab.load_model(MODEL))
     reference, t_ref = timed(compiled, 2, backend="reference")
-    kernel, t_kernel = timed(compiled, 20, backend="compiled")
-    sampled, t_sampled = timed(compiled, 20, backend="compiled", prove_quiet_steps=False)
+    kernel, t_kernel = timed(compiled, 20, backend="auto")
+    sampled, t_sampled = timed(compiled, 20, backend="auto", prove_quiet_steps=False)
 
     print(f"backend that ran: {kernel.stats['backend']}")
     print(f"reference engine          {t_ref * 1e3:8.2f} ms")
@@ -69,8 +72,8 @@ def main(argv: list[str] | None = None) -> int:
     worst = max(abs(a - b) for a, b in jumps)
     print(f"{len(kernel.events)} events; jumps: {len(jumps)}, largest time difference "
           f"{worst:.1e} s")
-    if worst > 1e-9:
-        print("FAIL: a jump differs by more than 1e-9 s")
+    if worst > 1e-8:
+        print("FAIL: a jump differs by more than 1e-8 s")
         ok = False
     same = ([(e.t, e.transition, tuple(e.post.values())) for e in kernel.events]
             == [(e.t, e.transition, tuple(e.post.values())) for e in sampled.events])
