@@ -305,3 +305,13 @@ def test_quiet_steps_change_no_event_on_random_models(tmp_path, seed):
     assert len(sampled.events) > 5
     assert _record(proven) == _record(sampled)
     assert 0 < proven.stats["quiet_steps"] < proven.stats["steps"]
+
+
+def test_the_kernel_modules_use_the_op_codes_codegen_prints():
+    # the kernel modules keep their own copies (they must not import sympy through codegen)
+    from hybridlab.simulation.compiled import bounds, codegen, kernel, locate
+
+    for module in (bounds, kernel, locate):
+        for name in dir(module):
+            if name.startswith("OP_") and hasattr(codegen, name):
+                assert getattr(module, name) == getattr(codegen, name), (module.__name__, name)
