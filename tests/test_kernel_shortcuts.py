@@ -5,7 +5,8 @@
 * monitor slopes at the samples are the derivative of the dense output
   (``simulation.interpolant.dense_slope``; the kernel's copy in ``locate._batch``);
 * an interval whose Hermite cubic provably stays above the tolerance skips the cubic's
-  extrema (``locate._above``), without ever hiding a candidate.
+  extrema (``locate._above``), without ever hiding a candidate;
+* the hot loops run without numba's reference counting (``signatures.borrowing``).
 """
 
 from __future__ import annotations
@@ -134,3 +135,31 @@ def test_bernstein_skip_takes_the_far_intervals():
 
     assert _above(0.1, 5.0, 4.0, -1.0, -1.0, 1e-12)      # far above zero: skipped
     assert not _above(0.1, 5.0, 0.5, -200.0, 1.0, 1e-12)  # may dip: the cubic is examined
+
+
+def test_the_hot_kernel_functions_borrow_their_arrays():
+    """The stages, the dense output, the sample loop, the root finders and the quiet-step
+    bound are compiled without reference counting; the one callee that needs it says so
+    (a callee compiled from a borrowing function would otherwise inherit the flag)."""
+    from hybridlab.simulation.compiled import bounds, integrate, locate, sliding
+
+    hot = [integrate._stages, integrate.rk_step, integrate._error_norm,
+           integrate.dense_coefficients, locate._batch, locate._brentq, locate._locate,
+           locate._fminbound, locate._search, sliding._flow_eq_sliding, sliding._sides,
+           sliding._sdot, bounds.state_box, bounds.quiet_step]
+    assert [f.py_func.__name__ for f in hot if f.targetoptions.get("_nrt") is not False] == []
+    assert locate._exit_value.targetoptions.get("_nrt") is True
+
+
+def test_borrowed_arrays_outlive_every_use(models_dir):
+    """Runs that slide, exit sliding and locate events through the borrowing functions give
+    the same events every time (a borrowed array freed too early would not)."""
+    compiled = hybridlab.compile_model(hybridlab.load_model(models_dir / "trolley.toml"))
+    runs = [hybridlab.simulate(compiled, backend="compiled", method=method)
+            for method in ("DOP853", "RK45") for _ in range(10)]
+    for first, again in ((runs[0], runs[1:10]), (runs[10], runs[11:])):
+        events = [(e.t, e.transition, e.kind, tuple(e.post.values())) for e in first.events]
+        assert len(events) > 50 and any(e.kind == "slide_end" for e in first.events)
+        for other in again:
+            assert [(e.t, e.transition, e.kind, tuple(e.post.values()))
+                    for e in other.events] == events

@@ -28,7 +28,7 @@ import numpy as np
 
 from hybridlab.simulation.compiled.integrate import RK45
 from hybridlab.simulation.compiled.locate import GUARD, INVARIANT, SWITCH
-from hybridlab.simulation.compiled.signatures import ptr
+from hybridlab.simulation.compiled.signatures import borrowing, ptr
 
 __all__ = ["state_box", "quiet_step", "box_workspace", "OP_GUARD_BOX", "OP_INV_BOX",
            "OP_SWITCH_BOX"]
@@ -46,7 +46,7 @@ def box_workspace(n, n_cond, n_sig):
             np.empty(2 * max(n_cond, 1)), np.empty(2 * max(n_sig, 1)))
 
 
-@numba.njit(cache=True)
+@borrowing
 def state_box(method, coef, h, y_old, act, box):
     """The range of every state over the step into ``box = [lo | hi]``.
 
@@ -91,7 +91,7 @@ def state_box(method, coef, h, y_old, act, box):
         box[n + q] = y_old[q] + hi + d
 
 
-@numba.njit(cache=True)
+@borrowing
 def quiet_step(box_model, md, p, sig, step, t0, t1, tol, armed, bx, guard_group, inv_group):
     """Whether no monitor can reach ``tol`` on ``[t0, t1]`` of the step (then arm them all).
 

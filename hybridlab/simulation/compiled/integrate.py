@@ -17,7 +17,7 @@ import numpy as np
 from scipy.integrate._ivp import dop853_coefficients as _dop
 from scipy.integrate._ivp.rk import RK45 as _RK45
 
-from hybridlab.simulation.compiled.signatures import ptr, ptr_at
+from hybridlab.simulation.compiled.signatures import borrowing, ptr, ptr_at
 from hybridlab.simulation.compiled.sliding import OP_FLOW, rhs
 
 __all__ = ["RK45", "DOP853", "METHOD_CODES", "ptr", "rk_step", "dense_coefficients",
@@ -77,7 +77,7 @@ def initial_step(model, fc, t0, y0, f0, t_bound, max_step, order, rtol, atol, p,
     return min(100 * h0, h1, interval, max_step)
 
 
-@numba.njit(cache=True)
+@borrowing
 def _stages(model, method, fc, t, y, f, h, p, sig, K, y_new, f_new, tmp):
     """One Runge-Kutta step (``rk_step``): stages into ``K``, result into y_new, f_new.
 
@@ -92,9 +92,10 @@ def _stages(model, method, fc, t, y, f, h, p, sig, K, y_new, f_new, tmp):
     else:
         A, B, C = _DP_A, _DP_B, _DP_C
         ns = _DP_N
-    K[0, :] = f
-    tmp[:] = y
     n = y.size
+    for i in range(n):  # element loops: a slice assignment may allocate (see borrowing)
+        K[0, i] = f[i]
+        tmp[i] = y[i]
     fg, W, plain = fc[0], fc[6], fc[5].size == 0
     for s in range(1, ns):
         for a in range(act.size):
@@ -108,7 +109,8 @@ def _stages(model, method, fc, t, y, f, h, p, sig, K, y_new, f_new, tmp):
                   ptr_at(K, s * n))
         else:
             rhs(model, fc, t + C[s] * h, tmp, p, sig, K[s])
-    y_new[:] = y
+    for i in range(n):
+        y_new[i] = y[i]
     for a in range(act.size):
         i = act[a]
         acc = 0.0
@@ -116,10 +118,11 @@ def _stages(model, method, fc, t, y, f, h, p, sig, K, y_new, f_new, tmp):
             acc += K[r, i] * B[r]
         y_new[i] = y[i] + h * acc
     rhs(model, fc, t + h, y_new, p, sig, f_new)
-    K[ns, :] = f_new
+    for i in range(n):
+        K[ns, i] = f_new[i]
 
 
-@numba.njit(cache=True)
+@borrowing
 def _error_norm(method, K, h, scale, act, n):
     """scipy's error norm over all ``n`` states; the inactive ones contribute exact zeros."""
     if method == RK45:
@@ -152,10 +155,11 @@ def _error_norm(method, K, h, scale, act, n):
     return abs(h) * e5n / np.sqrt(denom * n)
 
 
-@numba.njit(cache=True)
+@borrowing
 def rk_step(model, method, fc, t, y, f, t_bound, h_abs_in, max_step, rtol, atol, p, sig, K,
-            y_new, f_new, tmp):
-    """scipy's ``_step_impl``; returns ``(ok, t_new, h_abs_next, h)``."""
+            y_new, f_new, tmp, scale):
+    """scipy's ``_step_impl``; returns ``(ok, t_new, h_abs_next, h)`` (``scale``: scratch of
+    the state's size)."""
     order_err = 4 if method == RK45 else 7
     exponent = -1.0 / (order_err + 1)
     min_step = 10 * abs(np.nextafter(t, np.inf) - t)
@@ -168,7 +172,6 @@ def rk_step(model, method, fc, t, y, f, t_bound, h_abs_in, max_step, rtol, atol,
     rejected = False
     n = y.size
     act = fc[9]
-    scale = np.empty(n)
     while True:
         if h_abs < min_step:
             return False, t, h_abs, 0.0
@@ -196,7 +199,7 @@ def rk_step(model, method, fc, t, y, f, t_bound, h_abs_in, max_step, rtol, atol,
         rejected = True
 
 
-@numba.njit(cache=True)
+@borrowing
 def dense_coefficients(model, method, fc, t_old, h, y_old, y, f, p, sig, K, tmp, coef):
     """Interpolant of the last step into ``coef`` (``Q.T`` for RK45, ``F`` for DOP853).
 
@@ -214,8 +217,9 @@ def dense_coefficients(model, method, fc, t_old, h, y_old, y, f, p, sig, K, tmp,
                     acc += K[r, i] * P[r, j]
                 coef[j, i] = acc
         return
-    tmp[:] = y_old
     n = y.size
+    for i in range(n):
+        tmp[i] = y_old[i]
     fg, W, plain = fc[0], fc[6], fc[5].size == 0
     for s in range(_DP_N + 1, K.shape[0]):
         for a in range(act.size):

@@ -222,6 +222,7 @@ def run_kernel(model, box, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig
     f_new = np.empty(n)
     fcur = np.empty(n)
     tmp = np.empty(n)
+    scale = np.empty(n)
     fired = np.zeros(max(n_tr, 1), dtype=np.bool_)
     fresh = np.zeros(max(n_tr, 1), dtype=np.bool_)
     grazing = np.zeros(max(n_tr, 1), dtype=np.bool_)
@@ -518,7 +519,7 @@ def run_kernel(model, box, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig
             while True:
                 ok, t_new, h_abs, h = rk_step(model, method, fc, t, x, fcur, t_stop, h_abs,
                                               max_step, rtol, atol, p, sig, K, y_new, f_new,
-                                              tmp)
+                                              tmp, scale)
                 stats[0] += 1
                 if not ok or flag[0] != 0:
                     code = HANDOFF
@@ -542,14 +543,16 @@ def run_kernel(model, box, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig
                 for r in range(M):
                     if armed[r]:
                         has_floor[r] = False
-                ST = _grow(ST, nst)
+                if nst >= ST.shape[0]:  # (a call per step would count references)
+                    ST = _grow(ST, nst)
                 ST[nst, 0] = t_old
                 ST[nst, 1] = h
                 ST[nst, 2:2 + n] = x
                 for c in range(nc):
                     ST[nst, 2 + n + c * n:2 + n + (c + 1) * n] = coef[c]
                 nst += 1
-                PT = _grow(PT, npt)
+                if npt >= PT.shape[0]:
+                    PT = _grow(PT, npt)
                 if nfire > 0:
                     t_event = times[0]
                     for i in range(1, nfire):

@@ -18,7 +18,7 @@ import numba
 import numpy as np
 
 from hybridlab.simulation.compiled.integrate import RK45, dense_eval_at
-from hybridlab.simulation.compiled.signatures import ptr
+from hybridlab.simulation.compiled.signatures import borrowing, ptr
 from hybridlab.simulation.compiled.sliding import equivalent_signs
 
 __all__ = ["monitors_at", "monitor_value", "sample_step", "scan", "GUARD", "INVARIANT", "SWITCH",
@@ -105,10 +105,14 @@ def probe(md, p, sig, ws, step, r):
             ptr(y_old), ptr(act), ptr(sl))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=True)
 def _exit_value(model, pr, t):
     """A sliding exit's value ``1 - |sigma_eq|`` at the probed state (not inlined: the
-    equivalent-sign solve is large, and :func:`probe_value` is inlined in every root finder)."""
+    equivalent-sign solve is large, and :func:`probe_value` is inlined in every root finder).
+
+    Reference counted (``numba.carray`` needs it), and said so explicitly: the root finders
+    that call it are :func:`~.signatures.borrowing`, whose flag a callee would inherit.
+    """
     (_, _, _, _, _, _, _, pg, m, _, _, _, n, _, nact, nsl, nw, npar, nsig, pos, xs, p, sig, _,
      _, eqv, W, _, _, act) = pr[:30]
     # arrays over the same memory without a reference count (numba.carray)
@@ -145,7 +149,7 @@ def monitor_value(model, md, p, sig, ws, step, r, t):
     return probe_value(model, probe(md, p, sig, ws, step, r), t)
 
 
-@numba.njit(cache=True)
+@borrowing
 def _batch(model, md, p, sig, ws, step, times, T, PHI, DPHI, n0):
     """Monitor values and slopes at ``times`` of the step into columns ``n0...``.
 
@@ -163,13 +167,6 @@ def _batch(model, md, p, sig, ws, step, times, T, PHI, DPHI, n0):
     ns = sl.size
     nm = mk.size
     nco = coef.shape[0]
-    # where each sliding exit's switch sits in the sliding set
-    pos = np.zeros(nm, dtype=np.int64)
-    for r in range(nm):
-        if mk[r] == EXIT:
-            for a in range(ns):
-                if sl[a] == mref[r]:
-                    pos[r] = a
     pcv, psv, psig, peqv = ptr(cv), ptr(sv), ptr(sig), ptr(eqv)
     for i in range(times.size):
         t = times[i]
@@ -210,8 +207,13 @@ def _batch(model, md, p, sig, ws, step, times, T, PHI, DPHI, n0):
             model(OP_SWITCH_BOTH, sg, t, ptr(xs), ptr(p), ptr(sig), ptr(xd), ptr(sv))
         col = n0 + i
         for r in range(nm):
+            pos = 0  # where a sliding exit's switch sits in the sliding set
+            if mk[r] == EXIT:
+                for a in range(ns):
+                    if sl[a] == mref[r]:
+                        pos = a
             PHI[r, col], DPHI[r, col] = _column(mk[r], mref[r], mstart[r], mlen[r], nc, m,
-                                                pos[r], pcv, psv, psig, peqv)
+                                                pos, pcv, psv, psig, peqv)
     nt = times.size
     if nt < 2:
         return
@@ -382,7 +384,7 @@ def _above(h, fa, fb, da, db, tol):
     return min(fa, fb, b1, b2) - margin > tol
 
 
-@numba.njit(cache=True)
+@borrowing
 def _brentq(model, md, p, sig, ws, step, r, level, xa, xb, xtol, rtol, maxiter):
     pr = probe(md, p, sig, ws, step, r)
     xpre, xcur = xa, xb
@@ -426,7 +428,7 @@ def _brentq(model, md, p, sig, ws, step, r, level, xa, xb, xtol, rtol, maxiter):
     return xcur
 
 
-@numba.njit(cache=True)
+@borrowing
 def _locate(model, md, p, sig, ws, step, r, level, lo, hi, f_hi, xtol):
     """``locate_crossing``: the first time within ``xtol`` at which the monitor holds."""
     pr = probe(md, p, sig, ws, step, r)
@@ -453,7 +455,7 @@ def _locate(model, md, p, sig, ws, step, r, level, lo, hi, f_hi, xtol):
     return hi
 
 
-@numba.njit(cache=True)
+@borrowing
 def _fminbound(model, md, p, sig, ws, step, r, level, x1, x2, xatol):
     """scipy's bounded Brent minimiser (``minimize_scalar(method="bounded")``)."""
     pr = probe(md, p, sig, ws, step, r)
@@ -524,7 +526,7 @@ def _fminbound(model, md, p, sig, ws, step, r, level, x1, x2, xatol):
     return xf, fx
 
 
-@numba.njit(cache=True)
+@borrowing
 def _search(model, md, p, sig, ws, step, r, cand, tau, phi, lo_val, lo_s, t_from, level,
             xtol, tol):
     """First time the monitor reaches ``level`` in the candidate intervals (location.py)."""

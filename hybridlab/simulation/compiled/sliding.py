@@ -35,7 +35,7 @@ import math
 import numba
 import numpy as np
 
-from hybridlab.simulation.compiled.signatures import ptr, ptr_at
+from hybridlab.simulation.compiled.signatures import borrowing, ptr, ptr_at
 
 __all__ = ["workspace", "flag_index", "equivalent", "equivalent_signs", "flow_sliding",
            "flow_eq", "rhs", "enter_mode", "resolve", "update_switches", "active_indices", "OK",
@@ -166,7 +166,7 @@ def flow_sliding(model, pg, m, sl, act, W, t, x, p, sig, out, eq):
     return ok
 
 
-@numba.njit(cache=True)
+@borrowing
 def _flow_eq_sliding(model, fc, t, x, p, sig, out, eq):
     return flow_sliding(model, fc[7], fc[4], fc[5], fc[9], fc[6], t, x, p, sig, out, eq)
 
@@ -233,7 +233,7 @@ def rhs(model, fc, t, x, p, sig, out):
         _rhs_sliding(model, fc, t, x, p, sig, out)
 
 
-@numba.njit(cache=True)
+@borrowing
 def _sdot(model, fc, t, x, p, sigma, k, f, lie):
     fg, sg = fc[0], fc[1]
     model(OP_FLOW, fg, t, ptr(x), ptr(p), ptr(sigma), ptr(fc[6]), ptr(f))
@@ -241,9 +241,10 @@ def _sdot(model, fc, t, x, p, sigma, k, f, lie):
     return lie[k]
 
 
-@numba.njit(cache=True)
+@borrowing
 def _sides(model, fc, t, x, p, sig, k, f, lie, tmp):
-    tmp[:] = sig
+    for i in range(sig.size):
+        tmp[i] = sig[i]
     tmp[k] = 1.0
     d_plus = _sdot(model, fc, t, x, p, tmp, k, f, lie)
     tmp[k] = -1.0
