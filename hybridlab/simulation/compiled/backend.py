@@ -181,8 +181,8 @@ class Prepared:
         """The kernel's compiled entry point for these argument types.
 
         The first call goes through numba's dispatcher, which types every
-        argument (a first-class function among them) on each call, some tens
-        of microseconds against a 44-bounce ball's half millisecond. The
+        argument on each call, some microseconds against a 44-bounce ball's
+        half millisecond. The
         entry point it compiled (or loaded) for these types is then kept and
         called directly: the argument types of a model's runs never change.
         """
@@ -337,8 +337,9 @@ def run(compiled: CompiledModel, *, t0: float, x0: np.ndarray, mode: str, t_end:
     zcount = np.zeros(max(n_keys, 1), dtype=np.int64)
     sched_done = np.full(max(n_tr, 1), -1, dtype=np.int64)
     m0 = prep.mode_names.index(mode)
-    args = (prep.module.model, prep.module.box, ints, reals, opts_i, opts_f, float(t0),
-            np.ascontiguousarray(x0, dtype=float), m0, float(t_end),
+    # the generated functions by address (prep.module keeps them alive)
+    args = (prep.module.model.address, prep.module.box.address, ints, reals, opts_i, opts_f,
+            float(t0), np.ascontiguousarray(x0, dtype=float), m0, float(t_end),
             np.ascontiguousarray(p, dtype=float), prep.n_sig, ztimes, zcount, sched_done)
     out = prep.kernel_entry(args)(*args)
     code, EV, PT, ST, SG, kstats, info, last_t, last_x, last_m, j = out[:11]

@@ -42,7 +42,7 @@ from hybridlab.simulation.compiled.integrate import (
     rk_step,
 )
 from hybridlab.simulation.compiled.locate import EXIT, GUARD, INVARIANT, SWITCH, monitors_at, scan
-from hybridlab.simulation.compiled.signatures import ptr
+from hybridlab.simulation.compiled.signatures import model_at, ptr
 from hybridlab.simulation.compiled.sliding import (
     OK,
     active_indices,
@@ -152,12 +152,12 @@ def _log(EV, nev, t, j, ref, source, target, kind, grazing, pre, post):
 
 
 @numba.njit(cache=True)
-def run_kernel(model, box, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig, ztimes,
-               zcount, sched_done):
+def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m, t_end, p,
+               n_sig, ztimes, zcount, sched_done):
     """Run from ``(t, x, m)`` to ``t_end``; see the module docstring for the records.
 
-    ``model`` and ``box`` are the generated model's point and box functions
-    (:mod:`.codegen`).
+    ``model_address`` and ``box_address`` are the addresses of the generated
+    model's point and box functions (:mod:`.codegen`; ``cfunc.address``).
 
     ``ints``: per mode flow/cond/switch/gradient/dsigma group, invariant offset,
     invariants, switches, affine flag, outgoing pointer; the outgoing list; per
@@ -170,6 +170,7 @@ def run_kernel(model, box, ints, reals, opts_i, opts_f, t, x, m, t_end, p, n_sig
     transition period, phase. Returns the records, the final run state and the
     checkpoint (meaningful for :data:`HANDOFF`).
     """
+    model, box = model_at(model_address), model_at(box_address)
     (fgs, cgs, sgs, ggs, dgs, inv_off, n_inv, n_sw, affine, out_ptr, out_list, tr_target,
      tr_guard, tr_monitored, tr_sched, tr_sched_on, tr_reset, sw_key, tr_zkey, n_cond, _,
      _, _, _, inv_box) = ints
