@@ -151,6 +151,15 @@ def test_the_hot_kernel_functions_borrow_their_arrays():
     assert locate._exit_value.targetoptions.get("_nrt") is True
 
 
+def test_without_numbas_refcount_option_the_kernel_compiles_as_plain_njit(monkeypatch):
+    """``_nrt`` is an underscore option of numba: a numba without it gets plain ``njit``."""
+    from hybridlab.simulation.compiled import signatures
+
+    assert signatures._refcounting(False) == {"_nrt": False}
+    monkeypatch.setattr(signatures, "CPUTargetOptions", type("Options", (), {}))
+    assert signatures._refcounting(False) == {} == signatures._refcounting(True)
+
+
 def test_borrowed_arrays_outlive_every_use(models_dir):
     """Runs that slide, exit sliding and locate events through the borrowing functions give
     the same events every time (a borrowed array freed too early would not)."""

@@ -18,7 +18,7 @@ import numba
 import numpy as np
 
 from hybridlab.simulation.compiled.integrate import RK45, dense_eval_at
-from hybridlab.simulation.compiled.signatures import borrowing, ptr
+from hybridlab.simulation.compiled.signatures import borrowing, counted, ptr
 from hybridlab.simulation.compiled.sliding import equivalent_signs
 
 __all__ = ["monitors_at", "monitor_value", "sample_step", "scan", "GUARD", "INVARIANT", "SWITCH",
@@ -105,13 +105,13 @@ def probe(md, p, sig, ws, step, r):
             ptr(y_old), ptr(act), ptr(sl))
 
 
-@numba.njit(cache=True, _nrt=True)
+@counted
 def _exit_value(model, pr, t):
     """A sliding exit's value ``1 - |sigma_eq|`` at the probed state (not inlined: the
     equivalent-sign solve is large, and :func:`probe_value` is inlined in every root finder).
 
-    Reference counted (``numba.carray`` needs it), and said so explicitly: the root finders
-    that call it are :func:`~.signatures.borrowing`, whose flag a callee would inherit.
+    Reference counted (``numba.carray`` needs it), and said so explicitly
+    (:data:`~.signatures.counted`): the root finders that call it are borrowing.
     """
     (_, _, _, _, _, _, _, pg, m, _, _, _, n, _, nact, nsl, nw, npar, nsig, pos, xs, p, sig, _,
      _, eqv, W, _, _, act) = pr[:30]

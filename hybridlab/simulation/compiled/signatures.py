@@ -7,9 +7,10 @@ from functools import partial
 import numba
 from numba import types
 from numba.core import cgutils
+from numba.core.cpu import CPUTargetOptions
 from numba.extending import intrinsic
 
-__all__ = ["MODEL_SIGNATURE", "MODEL_TYPE", "ptr", "ptr_at", "borrowing", "model_at"]
+__all__ = ["MODEL_SIGNATURE", "MODEL_TYPE", "ptr", "ptr_at", "borrowing", "counted", "model_at"]
 
 _PTR = types.CPointer(types.float64)
 
@@ -63,11 +64,21 @@ def ptr_at(typingctx, arr, offset):  # noqa: ARG001 - numba intrinsic protocol
     return sig, codegen
 
 
+def _refcounting(enabled: bool) -> dict:
+    """numba's option for reference counting, where this numba has it (it is an underscore
+    option): without it, the functions below compile as plain ``njit``, only slower."""
+    return {"_nrt": enabled} if hasattr(CPUTargetOptions, "_nrt") else {}
+
+
 #: ``numba.njit(cache=True)`` for a kernel function that only *borrows* arrays, compiled
 #: without numba's reference counting. Each array bound in numba code (a tuple unpacked, an
 #: inlined call's parameter, a row view) otherwise costs an atomic increment and decrement;
 #: in the integrator's stages and the sampler's loops these were a sixth of a run. Such a
 #: function must not allocate, must not return or store an array, and may call only
-#: functions inlined into it or themselves ``borrowing``: its callers own every array it
-#: sees and keep them alive across the call.
-borrowing = partial(numba.njit, cache=True, _nrt=False)
+#: functions inlined into it, ``borrowing`` ones, or ``counted`` ones: its callers own every
+#: array it sees and keep them alive across the call.
+borrowing = partial(numba.njit, cache=True, **_refcounting(False))
+
+#: ``numba.njit(cache=True)`` with reference counting said explicitly, for a function that
+#: needs it and is called from a ``borrowing`` one (whose setting it would otherwise inherit).
+counted = partial(numba.njit, cache=True, **_refcounting(True))
