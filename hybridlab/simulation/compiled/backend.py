@@ -181,10 +181,9 @@ class Prepared:
         """The kernel's compiled entry point for these argument types.
 
         The first call goes through numba's dispatcher, which types every
-        argument on each call, some microseconds against a 44-bounce ball's
-        half millisecond. The
-        entry point it compiled (or loaded) for these types is then kept and
-        called directly: the argument types of a model's runs never change.
+        argument on each call. The entry point it compiled (or loaded) for
+        these types is then kept and called directly: the argument types of a
+        model's runs never change.
         """
         entry = self.entries.get("kernel")
         if entry is None:

@@ -1,4 +1,5 @@
-"""The numba signature shared by generated models and the kernel."""
+"""The numba signature shared by generated models and the kernel, and the kernel's compile
+settings (:data:`borrowing`, :data:`counted`)."""
 
 from __future__ import annotations
 
