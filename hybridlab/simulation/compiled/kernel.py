@@ -197,10 +197,21 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
     bx = box_workspace(n, n_cmax, ns)
     gv = np.empty(max(np.max(tr_monitored[n_tr:]) if n_tr else 1, 1))
     gd = np.empty(gv.size)
-    mk = np.empty(0, dtype=np.int64)
-    mref = np.empty(0, dtype=np.int64)
-    mstart = np.empty(0, dtype=np.int64)
-    hit_rows = np.empty(0, dtype=np.int64)
+    # the monitor table of a flow segment and its per-monitor state: views of buffers
+    # sized for the mode with the most monitors (a segment starts at every event)
+    m_max = 1
+    for mm in range(n_inv.size):
+        c = n_inv[mm] + n_sw[mm]
+        for oi in range(out_ptr[mm], out_ptr[mm + 1]):
+            if tr_monitored[out_list[oi]] == 1:
+                c += 1
+        m_max = max(m_max, c)
+    table = np.empty((5, m_max), dtype=np.int64)  # kind, ref, start, length, hit rows
+    mk, mref, mstart, mlen, hit_rows = table[0], table[1], table[2], table[3], table[4]
+    flags = np.zeros((2, m_max), dtype=np.bool_)  # armed, has a floor
+    floors_b = np.zeros(m_max)
+    phi0_b = np.empty((m_max, 1))
+    dphi0_b = np.empty((m_max, 1))
     hit_graz = np.zeros(0, dtype=np.bool_)
     rows = np.empty(0, dtype=np.int64)
     times = np.empty(0)
@@ -317,6 +328,7 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
             settled = False
             for _ in range(max_iter):
                 chosen = -1
+                flowing = False  # the (equivalent) flow at (t, x) is in fcur: once per pass
                 for oi in range(out_ptr[m], out_ptr[m + 1]):
                     tr = out_list[oi]
                     xt = _xtol(event_tol, t)
@@ -339,10 +351,12 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
                         stop = True
                         break
                     # guard_state: G = min g_i and its slope along the (equivalent) flow
-                    if not flow_eq(model, fc, t, x, p, sig, fcur, eqv):
-                        code = HANDOFF
-                        stop = True
-                        break
+                    if not flowing:
+                        if not flow_eq(model, fc, t, x, p, sig, fcur, eqv):
+                            code = HANDOFF
+                            stop = True
+                            break
+                        flowing = True
                     model(OP_GUARD, tr_guard[tr], t, ptr(x), ptr(p), ptr(sig), ptr(dummy),
                           ptr(gv))
                     model(OP_GUARD_LIE, tr_guard[tr], t, ptr(x), ptr(p), ptr(sig), ptr(fcur),
@@ -461,10 +475,7 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
                 if tr_monitored[out_list[oi]] == 1:
                     M += 1
             M += n_inv[m] + n_sw[m]
-            mk = np.empty(M, dtype=np.int64)
-            mref = np.empty(M, dtype=np.int64)
-            mstart = np.empty(M, dtype=np.int64)
-            mlen = np.empty(M, dtype=np.int64)
+            mk, mref, mstart, mlen = table[0, :M], table[1, :M], table[2, :M], table[3, :M]
             r = 0
             row0 = 0
             for oi in range(out_ptr[m], out_ptr[m + 1]):
@@ -487,12 +498,13 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
             PT[npt, 0] = t
             PT[npt, 1:] = x
             npt += 1
-            armed = np.zeros(M, dtype=np.bool_)
-            has_floor = np.zeros(M, dtype=np.bool_)
-            floors = np.zeros(M)
+            armed, has_floor, floors = flags[0, :M], flags[1, :M], floors_b[:M]
+            for r in range(M):
+                armed[r] = False
+                has_floor[r] = False
+                floors[r] = 0.0
             if M > 0:
-                phi0 = np.empty((M, 1))
-                dphi0 = np.empty((M, 1))
+                phi0, dphi0 = phi0_b[:M], dphi0_b[:M]
                 flow_eq(model, fc, t, x, p, sig, ws[1], ws[6])
                 monitors_at(model, md, p, sig, ws, t, x, ws[1], phi0, dphi0, 0)
                 for r in range(M):
@@ -507,14 +519,18 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
                     code = HANDOFF
                 if code == HANDOFF:
                     break
-            rhs(model, fc, t, x, p, sig, fcur)
+            if M > 0 and fc[5].size == 0:
+                for i in range(n):  # without sliding, flow_eq gave the flow itself
+                    fcur[i] = ws[1][i]
+            else:
+                rhs(model, fc, t, x, p, sig, fcur)
             if h_last > 0:
                 h_abs = min(h_last, t_stop - t)
             else:
                 h_abs = initial_step(model, fc, t, x, fcur, t_stop, max_step, order_err, rtol,
                                      atol, p, sig)
             hit_n = 0
-            hit_rows = np.empty(M, dtype=np.int64)
+            hit_rows = table[4, :M]
             coef[:] = 0.0  # the columns of states outside the active set stay zero
             act = fc[9]
             while True:
