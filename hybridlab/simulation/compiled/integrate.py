@@ -47,6 +47,43 @@ N_K = (_RK_A.shape[0] + 1, _dop.N_STAGES_EXTENDED)
 N_COEF = (_RK_P.shape[1], _dop.INTERPOLATOR_POWER)
 
 
+def _nonzero(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The nonzero entries of a coefficient table, row by row in column order.
+
+    Returns ``(start, column, value)``: row ``s`` holds ``value[q]`` at
+    ``column[q]`` for ``q`` in ``start[s]:start[s + 1]``. A weighted sum of
+    stages over these entries adds the same terms in the same order as over
+    the whole row, less the exact zeros (about a third of the tables), so its
+    result is bit for bit the same: a sum that starts at +0.0 is unchanged by
+    adding a zero product.
+
+    Examples
+    --------
+    >>> _nonzero(np.array([[0.0, 0.0], [0.5, 0.0], [0.25, 2.0]]))
+    (array([0, 0, 1, 3]), array([0, 0, 1]), array([0.5 , 0.25, 2.  ]))
+    """
+    rows = np.atleast_2d(np.asarray(rows, dtype=np.float64))
+    start, column = [0], []
+    for row in rows:
+        column.extend(np.flatnonzero(row))
+        start.append(len(column))
+    column = np.array(column, dtype=np.int64)
+    value = rows[np.repeat(np.arange(rows.shape[0]), np.diff(start)), column]
+    return np.array(start, dtype=np.int64), column, np.ascontiguousarray(value)
+
+
+# the tables in that form: stage rows (A), solution weights (B), error weights (E; for
+# DOP853 the union of E5's and E3's entries, which coincide), interpolant columns (P.T)
+_RK_AS, _RK_AC, _RK_AV = _nonzero(_RK_A)
+_, _RK_BC, _RK_BV = _nonzero(_RK_B)
+_, _RK_EC, _ = _nonzero(_RK_E)
+_RK_PS, _RK_PC, _RK_PV = _nonzero(_RK_P.T)
+_DP_AS, _DP_AC, _DP_AV = _nonzero(_DP_A)
+_, _DP_BC, _DP_BV = _nonzero(_DP_B)
+_, _DP_EC, _ = _nonzero(np.abs(_DP_E5) + np.abs(_DP_E3))
+_DP_DS, _DP_DC, _DP_DV = _nonzero(_DP_D)
+
+
 @numba.njit(cache=True)
 def _rms(v: np.ndarray) -> float:
     return np.linalg.norm(v) / v.size ** 0.5
@@ -87,10 +124,10 @@ def _stages(model, method, fc, t, y, f, h, p, sig, K, y_new, f_new, tmp):
     """
     act = fc[9]
     if method == RK45:
-        A, B, C = _RK_A, _RK_B, _RK_C
-        ns = A.shape[0]
+        a_start, a_col, a_val, b_col, b_val, C = _RK_AS, _RK_AC, _RK_AV, _RK_BC, _RK_BV, _RK_C
+        ns = _RK_A.shape[0]
     else:
-        A, B, C = _DP_A, _DP_B, _DP_C
+        a_start, a_col, a_val, b_col, b_val, C = _DP_AS, _DP_AC, _DP_AV, _DP_BC, _DP_BV, _DP_C
         ns = _DP_N
     n = y.size
     for i in range(n):  # element loops: a slice assignment may allocate (see borrowing)
@@ -101,8 +138,8 @@ def _stages(model, method, fc, t, y, f, h, p, sig, K, y_new, f_new, tmp):
         for a in range(act.size):
             i = act[a]
             acc = 0.0
-            for r in range(s):
-                acc += K[r, i] * A[s, r]
+            for q in range(a_start[s], a_start[s + 1]):  # the nonzero A[s, r], r < s
+                acc += K[a_col[q], i] * a_val[q]
             tmp[i] = y[i] + acc * h
         if plain:  # the flow straight into row s of K: no row view, no flow context to unpack
             model(OP_FLOW, fg, t + C[s] * h, ptr(tmp), ptr(p), ptr(sig), ptr(W),
@@ -114,8 +151,8 @@ def _stages(model, method, fc, t, y, f, h, p, sig, K, y_new, f_new, tmp):
     for a in range(act.size):
         i = act[a]
         acc = 0.0
-        for r in range(ns):
-            acc += K[r, i] * B[r]
+        for q in range(b_col.size):
+            acc += K[b_col[q], i] * b_val[q]
         y_new[i] = y[i] + h * acc
     rhs(model, fc, t + h, y_new, p, sig, f_new)
     for i in range(n):
@@ -131,8 +168,8 @@ def _error_norm(method, K, h, scale, act, n):
         for a in range(act.size):
             i = act[a]
             e = 0.0
-            for r in range(E.size):
-                e += K[r, i] * E[r]
+            for q in range(_RK_EC.size):
+                e += K[_RK_EC[q], i] * E[_RK_EC[q]]
             v = e * h / scale[i]
             acc += v * v
         return np.sqrt(acc) / n ** 0.5
@@ -142,7 +179,8 @@ def _error_norm(method, K, h, scale, act, n):
         i = act[a]
         e5 = 0.0
         e3 = 0.0
-        for r in range(_DP_N + 1):
+        for q in range(_DP_EC.size):
+            r = _DP_EC[q]
             e5 += K[r, i] * _DP_E5[r]
             e3 += K[r, i] * _DP_E3[r]
         e5 /= scale[i]
@@ -208,13 +246,12 @@ def dense_coefficients(model, method, fc, t_old, h, y_old, y, f, p, sig, K, tmp,
     """
     act = fc[9]
     if method == RK45:
-        P = _RK_P
-        for j in range(P.shape[1]):
+        for j in range(_RK_PS.size - 1):
             for a in range(act.size):
                 i = act[a]
                 acc = 0.0
-                for r in range(K.shape[0]):
-                    acc += K[r, i] * P[r, j]
+                for q in range(_RK_PS[j], _RK_PS[j + 1]):  # the nonzero P[r, j]
+                    acc += K[_RK_PC[q], i] * _RK_PV[q]
                 coef[j, i] = acc
         return
     n = y.size
@@ -225,8 +262,8 @@ def dense_coefficients(model, method, fc, t_old, h, y_old, y, f, p, sig, K, tmp,
         for a in range(act.size):
             i = act[a]
             acc = 0.0
-            for r in range(s):
-                acc += K[r, i] * _DP_A[s, r]
+            for q in range(_DP_AS[s], _DP_AS[s + 1]):
+                acc += K[_DP_AC[q], i] * _DP_AV[q]
             tmp[i] = y_old[i] + acc * h
         if plain:
             model(OP_FLOW, fg, t_old + _DP_C[s] * h, ptr(tmp), ptr(p), ptr(sig), ptr(W),
@@ -241,8 +278,8 @@ def dense_coefficients(model, method, fc, t_old, h, y_old, y, f, p, sig, K, tmp,
         coef[2, i] = 2 * dy - h * (f[i] + K[0, i])
         for j in range(_DP_D.shape[0]):
             acc = 0.0
-            for r in range(K.shape[0]):
-                acc += _DP_D[j, r] * K[r, i]
+            for q in range(_DP_DS[j], _DP_DS[j + 1]):
+                acc += _DP_DV[q] * K[_DP_DC[q], i]
             coef[3 + j, i] = h * acc
 
 
