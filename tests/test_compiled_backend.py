@@ -6,6 +6,7 @@ import os
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -261,3 +262,15 @@ def test_second_process_loads_the_compiled_model_from_the_disk_cache(tmp_path, m
                          capture_output=True, text=True, check=True,
                          env={**os.environ, "HYBRIDLAB_CACHE_DIR": str(tmp_path)})
     assert out.stdout.split() == ["compiled", "True"]
+
+
+def test_kernel_cache_is_checked_where_numba_keeps_it(tmp_path):
+    """With ``$NUMBA_CACHE_DIR`` set numba caches the kernel there, not in the source tree:
+    the digest of the kernel's sources (which drops a stale kernel) must be kept there too."""
+    script = ("from hybridlab.simulation.compiled import backend; "
+              "print(backend._kernel_cache_path())")
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                         check=True, env={**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)})
+    cache = Path(out.stdout.strip())
+    assert cache.parent == tmp_path
+    assert (cache / "kernel-sources.sha256").is_file()

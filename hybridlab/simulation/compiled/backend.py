@@ -68,29 +68,52 @@ __all__ = ["cache_dir", "prepare", "run", "Prepared", "StepInterpolants"]
 _KERNEL_SOURCES = ("signatures", "sliding", "integrate", "locate", "bounds", "kernel")
 
 
-def _refresh_kernel_cache() -> None:
-    """Drop the kernel's numba cache when any of its modules changed.
+def _kernel_cache_path() -> Path:
+    """The directory numba keeps the kernel's cached functions in.
+
+    That is the source tree's ``__pycache__``, a folder under
+    ``$NUMBA_CACHE_DIR`` when it is set, or numba's user-wide cache for a
+    read-only install: numba's own choice, read off the kernel's dispatcher.
+    """
+    path = getattr(getattr(run_kernel, "_cache", None), "_cache_path", None)
+    return Path(path) if path else Path(__file__).parent / "__pycache__"
+
+
+def _refresh_kernel_cache(cache: Path) -> bool:
+    """Drop the kernel's numba cache in ``cache`` when any of its modules changed.
 
     numba validates a cached function against its own source file only, so
     after an edit of, say, ``locate.py`` it would load a stale kernel. The
-    digest of the kernel's sources is kept next to the cache.
+    digest of the kernel's sources is kept next to the cache. Returns whether
+    the cache was dropped.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     stale = Path(folder, "kernel.run_kernel-150.py311.nbi")
+    ...     _ = stale.write_bytes(b"")
+    ...     dropped = _refresh_kernel_cache(Path(folder)), _refresh_kernel_cache(Path(folder))
+    ...     dropped, stale.exists()
+    ((True, False), False)
     """
     here = Path(__file__).parent
     digest = hashlib.sha256(b"".join((here / f"{name}.py").read_bytes()
-                                     for name in _KERNEL_SOURCES))
-    cache = here / "__pycache__"
+                                     for name in _KERNEL_SOURCES)).hexdigest()
     stamp = cache / "kernel-sources.sha256"
     try:
-        if stamp.is_file() and stamp.read_text() == digest.hexdigest():
-            return
+        if stamp.is_file() and stamp.read_text() == digest:
+            return False
         for f in [*cache.glob("*.nbi"), *cache.glob("*.nbc")]:
             f.unlink(missing_ok=True)
-        stamp.write_text(digest.hexdigest())
-    except OSError:  # a read-only install: numba then caches elsewhere (its user-wide cache)
-        return
+        cache.mkdir(parents=True, exist_ok=True)
+        stamp.write_text(digest)
+    except OSError:  # numba cannot write there either: it does not cache the kernel
+        return False
+    return True
 
 
-_refresh_kernel_cache()
+_refresh_kernel_cache(_kernel_cache_path())
 
 
 def cache_dir() -> Path:
