@@ -19,7 +19,7 @@ from collections.abc import Sequence
 from common import Report, add_arguments, machine_info, print_report, repeat_count, write_json
 
 #: Benchmark modules, run in this order.
-BENCHMARKS = ("bouncing_ball", "trolley_free_drop", "trolley_stop_and_return")
+BENCHMARKS = ("bouncing_ball", "trolley_free_drop", "trolley_stop_and_return", "kernel_floor")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
