@@ -72,15 +72,14 @@ def _nonzero(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.array(start, dtype=np.int64), column, np.ascontiguousarray(value)
 
 
-# the tables in that form: stage rows (A), solution weights (B), error weights (E; for
-# DOP853 the union of E5's and E3's entries, which coincide), interpolant columns (P.T)
+# the tables in that form: stage rows (A), solution weights (B), interpolant columns (P.T,
+# D). The error sums keep every stage: a non-finite stage (say, the flow at the new state)
+# must make the error NaN and the step rejected, as in scipy, even where its weight is zero.
 _RK_AS, _RK_AC, _RK_AV = _nonzero(_RK_A)
 _, _RK_BC, _RK_BV = _nonzero(_RK_B)
-_, _RK_EC, _ = _nonzero(_RK_E)
 _RK_PS, _RK_PC, _RK_PV = _nonzero(_RK_P.T)
 _DP_AS, _DP_AC, _DP_AV = _nonzero(_DP_A)
 _, _DP_BC, _DP_BV = _nonzero(_DP_B)
-_, _DP_EC, _ = _nonzero(np.abs(_DP_E5) + np.abs(_DP_E3))
 _DP_DS, _DP_DC, _DP_DV = _nonzero(_DP_D)
 
 
@@ -168,8 +167,8 @@ def _error_norm(method, K, h, scale, act, n):
         for a in range(act.size):
             i = act[a]
             e = 0.0
-            for q in range(_RK_EC.size):
-                e += K[_RK_EC[q], i] * E[_RK_EC[q]]
+            for r in range(E.size):
+                e += K[r, i] * E[r]
             v = e * h / scale[i]
             acc += v * v
         return np.sqrt(acc) / n ** 0.5
@@ -179,8 +178,7 @@ def _error_norm(method, K, h, scale, act, n):
         i = act[a]
         e5 = 0.0
         e3 = 0.0
-        for q in range(_DP_EC.size):
-            r = _DP_EC[q]
+        for r in range(_DP_N + 1):
             e5 += K[r, i] * _DP_E5[r]
             e3 += K[r, i] * _DP_E3[r]
         e5 /= scale[i]
