@@ -98,10 +98,9 @@ def _steps_by_sliding(result: hybridlab.SimulationResult, n_sig: int) -> Counter
     intervals: list[tuple[int, float, float]] = []
     started: dict[int, float] = {}
     for e in result.events:
-        kind = str(e.kind)
-        if "slide_start" in kind:
+        if e.kind == "slide_start":
             started[switches.index(e.transition)] = e.t
-        elif "slide_end" in kind:
+        elif e.kind == "slide_end":
             k = switches.index(e.transition)
             intervals.append((k, started.pop(k, 0.0), e.t))
     intervals += [(k, t, np.inf) for k, t in started.items()]
