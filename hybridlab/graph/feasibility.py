@@ -31,6 +31,7 @@ import sympy as sp
 from scipy.optimize import least_squares, linprog
 
 from hybridlab.symbolic.intervals import EmptyInterval, Interval, compile_interval
+from hybridlab.symbolic.printing import PrintError, numpy_function
 
 __all__ = ["Verdict", "Decision", "decide"]
 
@@ -241,8 +242,8 @@ class _Search:
         """A point found by least squares on the violations of every row, or ``None``."""
         variables = sorted(set(self.nl_vars) | set(self.affine_vars), key=str)
         try:
-            rows = sp.lambdify(variables, list(self.nonlinear), modules="math")
-        except Exception:  # noqa: BLE001 - a construct lambdify cannot print: no local search
+            rows = numpy_function([variables], list(self.nonlinear), scalar=True)
+        except PrintError:  # a construct the printer cannot express: no local search
             return None
         index = {v: k for k, v in enumerate(variables)}
         a = np.zeros((len(self.affine), len(variables)))
@@ -253,7 +254,7 @@ class _Search:
 
         def violations(z: np.ndarray) -> np.ndarray:
             try:
-                values = np.array(rows(*z), dtype=float)
+                values = np.array(rows(z), dtype=float)
             except (ValueError, OverflowError, ZeroDivisionError):
                 values = np.full(len(self.nonlinear), -1e6)
             values = np.where(np.isfinite(values), values, -1e6)

@@ -28,13 +28,13 @@ from hybridlab.symbolic.discontinuities import extract_switches
 from hybridlab.symbolic.functions import _no_impulses
 from hybridlab.symbolic.intervals import IntervalFunction
 from hybridlab.symbolic.lagrange import lagrange_equations, mode_flow
+from hybridlab.symbolic.printing import numpy_function
 
 __all__ = ["Rows", "ModeSystem", "ResetMap", "System", "build_system"]
 
 
 def _lambdify(exprs: Sequence[sp.Expr], args: Sequence[Sequence[sp.Symbol]]):
-    # sympy expressions built by the model layer's whitelist parser, never user text
-    f = sp.lambdify([list(a) for a in args], list(exprs), modules="numpy", cse=True)
+    f = numpy_function([list(a) for a in args], exprs)
 
     def call(*values: np.ndarray) -> np.ndarray:
         return np.array(f(*values), dtype=float).reshape(len(exprs))

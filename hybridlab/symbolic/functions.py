@@ -13,6 +13,8 @@ from collections.abc import Sequence
 import numpy as np
 import sympy as sp
 
+from hybridlab.symbolic.printing import numpy_function
+
 __all__ = ["VectorFunction", "MatrixFunction", "LazyMatrixFunction"]
 
 _EMPTY = np.empty(0)
@@ -58,7 +60,7 @@ class VectorFunction:
         self.exprs = tuple(_no_impulses(sp.Integer(0) + e) for e in exprs)
         self.size = len(self.exprs)
         args = [t, tuple(states), tuple(parameters), tuple(sigmas), tuple(extra)]
-        self._fn = sp.lambdify(args, list(self.exprs), modules="numpy", cse=True)
+        self._fn = numpy_function(args, self.exprs)
 
     def __call__(self, t: float, x: np.ndarray, p: np.ndarray, sigma: np.ndarray,
                  extra: np.ndarray = _EMPTY) -> np.ndarray:

@@ -16,6 +16,8 @@ from collections.abc import Mapping, Sequence
 
 import sympy as sp
 
+from hybridlab.symbolic.printing import common_subexpressions
+
 __all__ = ["box_body"]
 
 _UNARY = {sp.sin: "i_sin", sp.cos: "i_cos", sp.exp: "i_exp", sp.log: "i_log",
@@ -112,8 +114,7 @@ def box_body(exprs: Sequence[sp.Expr], symbols: Mapping[sp.Symbol, tuple[str, st
     >>> lines[-1]
     'out[1] = _b2h'
     """
-    exprs = [sp.Integer(0) + e for e in exprs]
-    replacements, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("_c"))
+    replacements, reduced = common_subexpressions(exprs)
     writer = _Writer(symbols, indent)
     for sym, e in replacements:
         writer.bind(sym, e)

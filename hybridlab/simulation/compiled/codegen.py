@@ -29,11 +29,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import sympy as sp
-from sympy.printing.pycode import PythonCodePrinter
 
 from hybridlab.model.checks import TIME
 from hybridlab.simulation.compiled.box_printer import box_body
 from hybridlab.symbolic.compile import CompiledModel
+from hybridlab.symbolic.printing import PrintError, lower, scalar_printer
 
 __all__ = ["OP_FLOW", "OP_COND", "OP_COND_LIE", "OP_SWITCH", "OP_SWITCH_LIE", "OP_RESET",
            "OP_GUARD", "OP_GUARD_LIE", "OP_SWITCH_GRAD", "OP_FLOW_DSIGMA", "OP_SLIDE_PARTS",
@@ -64,18 +64,6 @@ _INTERVAL_DIGEST = hashlib.sha256(
 
 class UnsupportedModel(Exception):
     """The model uses something the printer cannot turn into numba code."""
-
-
-class _Printer(PythonCodePrinter):
-    def _print_sign(self, expr: sp.Expr) -> str:
-        arg = self._print(expr.args[0])
-        return f"_sign({arg})"
-
-    def _print_Min(self, expr: sp.Expr) -> str:
-        return "min(" + ", ".join(f"float({self._print(a)})" for a in expr.args) + ")"
-
-    def _print_Max(self, expr: sp.Expr) -> str:
-        return "max(" + ", ".join(f"float({self._print(a)})" for a in expr.args) + ")"
 
 
 @dataclass(frozen=True)
@@ -117,28 +105,14 @@ class ModelSource:
 
 def _body(exprs: Sequence[sp.Expr], names: dict[sp.Symbol, str], indent: str) -> list[str]:
     """Assignments ``out[i] = ...`` of ``exprs`` after CSE, reading only the symbols used."""
-    exprs = [sp.Integer(0) + e for e in exprs]
-    used = set().union(*(e.free_symbols for e in exprs)) if exprs else set()
-    printer = _Printer({"fully_qualified_modules": True, "standard": "python3"})
-    lines = []
-    for sym in sorted(used, key=lambda s: names.get(s, s.name)):
-        if sym not in names:
-            raise UnsupportedModel(f"symbol {sym.name!r} is not an argument")
-        lines.append(f"{indent}{_local(sym, names)} = {names[sym]}")
-    replacements, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("_c"))
-    local = {s: _local(s, names) for s in used}
-
-    def text(e: sp.Expr) -> str:
-        out = printer.doprint(e.xreplace({s: sp.Symbol(v) for s, v in local.items()}))
-        if "Not supported" in out or "\n" in out:
-            raise UnsupportedModel(f"cannot compile {e}")
-        return out
-
-    for sym, e in replacements:
-        lines.append(f"{indent}{sym.name} = {text(e)}")
-    for i, e in enumerate(reduced):
-        lines.append(f"{indent}out[{i}] = {text(e)}")
-    return lines
+    local = {s: _local(s, names) for s in names}
+    try:
+        low = lower(exprs, local)
+        reads = [f"{indent}{local[s]} = {names[s]}" for s in sorted(low.used, key=local.get)]
+        return reads + low.statements(scalar_printer(low.names, sign="_sign"), indent,
+                                      "out[{i}] = {value}")
+    except PrintError as exc:
+        raise UnsupportedModel(str(exc)) from None
 
 
 def _box_symbols(names: dict[sp.Symbol, str], n: int) -> dict[sp.Symbol, tuple[str, str]]:
