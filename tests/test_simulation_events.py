@@ -290,3 +290,83 @@ mode = "a"
     names = [(round(e.t, 9), e.transition) for e in result.jumps]
     assert names == [(0.0, "tick"), (0.25, "tick"), (0.5, "tick"), (0.6, "wrap"), (0.75, "tick"),
                      (1.0, "tick"), (1.2, "wrap"), (1.25, "tick")]
+
+
+STICKY_BALL = """
+name = "sticky_ball"
+parameters = { g = 9.81, e = 0.0 }
+states = { h = 1.0, v = 0.0 }
+[modes.fall]
+flow = { h = "v", v = "-g" }
+invariant = "h >= 0"
+[[transitions]]
+name = "bounce"
+source = "fall"
+target = "fall"
+guard = "h <= 0"
+reset = { v = "-e*v" }
+[initial]
+mode = "fall"
+"""
+
+
+@pytest.mark.parametrize("backend", ["reference", "auto"])
+@pytest.mark.parametrize("e", [0.0, 1e-3, 0.01, 0.05, 0.1, 0.3])
+def test_a_reset_onto_its_guard_against_the_invariant_is_zeno_never_a_fall(e, backend):
+    # after the reset the state sits on the guard and the flow leaves the invariant: the
+    # automaton can only jump again at once (e = 0) or after ever shorter flights
+    result = hybridlab.simulate(model(STICKY_BALL), t_end=5.0, params={"e": e},
+                                backend=backend)
+    assert result.status is Status.ZENO, result.message
+    t1 = math.sqrt(2 / 9.81)
+    t_acc = t1 * (1 + 2 * e / (1 - e))  # the flights' geometric series
+    assert result.zeno_time == pytest.approx(t_acc, rel=1e-5)
+    ts = np.linspace(0.0, result.final.t, 2001)
+    assert result(ts)[0].min() >= -1e-9  # never through the floor
+    assert result.final.t <= t_acc * (1 + 1e-5)
+
+
+def test_a_mode_named_like_the_wildcard_is_refused():
+    text = STICKY_BALL.replace("[modes.fall]", '[modes."*"]').replace('"fall"', '"*"')
+    with pytest.raises(hybridlab.ModelError, match=r"modes: .*'\*'.*token '\*'"):
+        model(text)
+
+
+SAMPLER = """
+name = "sampler"
+parameters = { T = 0.0, on = 1.0 }
+states = { x = 1.0, n = 0.0 }
+[modes.a]
+flow = { x = "-x", n = "0" }
+[[transitions]]
+name = "tick"
+source = "a"
+target = "a"
+reset = { n = "n + 1" }
+schedule = { period = "1/T", enabled = "on" }
+[initial]
+mode = "a"
+"""
+
+
+def test_a_schedule_period_that_is_not_finite_is_a_load_error():
+    with pytest.raises(hybridlab.ModelError,
+                       match=r"transitions\[0\]\.schedule\.period: must be positive and finite "
+                             r".*token '1/T'"):
+        model(SAMPLER)
+    for period in ("0", "-0.5", "T - 1"):
+        with pytest.raises(hybridlab.ModelError, match="schedule.period: must be positive"):
+            model(SAMPLER.replace('"1/T"', f'"{period}"'))
+    with pytest.raises(hybridlab.ModelError, match="schedule.phase: must be finite"):
+        model(SAMPLER.replace('"1/T"', '"1", phase = "1/T"'))
+
+
+@pytest.mark.parametrize("backend", ["reference", "auto"])
+def test_a_schedule_period_invalid_for_a_run_is_an_error_and_enabled_switches_it_off(backend):
+    sampler = model(SAMPLER.replace("T = 0.0", "T = 4.0"))
+    result = hybridlab.simulate(sampler, t_end=1.0, backend=backend)
+    assert [ev.t for ev in result.jumps] == pytest.approx([0.0, 0.25, 0.5, 0.75, 1.0])
+    with pytest.raises(hybridlab.ModelError, match=r"schedule\.period: must be positive .*run"):
+        hybridlab.simulate(sampler, t_end=1.0, params={"T": 0.0}, backend=backend)
+    off = hybridlab.simulate(sampler, t_end=1.0, params={"T": 0.0, "on": 0.0}, backend=backend)
+    assert off.status is Status.COMPLETED and not off.jumps

@@ -12,7 +12,6 @@ only when no parameter set reaches it from its initial mode.
 from __future__ import annotations
 
 import itertools
-import math
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import StrEnum
@@ -245,9 +244,10 @@ def _edges(sym: SymbolicModel) -> list[_Edge]:
         for expr in (*guard, *inv[tr.source], *inv[tr.target], *reset.values()):
             used |= expr.free_symbols & params
         if tr.period is not None:
-            used |= (tr.period.free_symbols | tr.phase.free_symbols) & params
+            used |= (tr.period.free_symbols | tr.phase.free_symbols
+                     | tr.enabled.free_symbols) & params
         out.append(_Edge(tr, guard, inv[tr.source], inv[tr.target], reset, frozenset(used),
-                         (parts, str(tr.period))))
+                         (parts, str(tr.period), str(tr.enabled))))
     return out
 
 
@@ -284,10 +284,9 @@ class _Checker:
         disabled = False
         if edge.tr.period is not None:
             try:
-                period = float(edge.tr.period.xreplace(values))
+                disabled = float(edge.tr.enabled.xreplace(values)) == 0
             except (TypeError, ValueError):
-                period = math.nan
-            disabled = not (math.isfinite(period) and period > 0)
+                disabled = False
         base = [e.xreplace(values) for e in (*edge.source_invariant, *edge.guard)]
         guard = self.decide(base)
         reset = None

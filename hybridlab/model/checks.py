@@ -6,6 +6,7 @@ raises :class:`~hybridlab.errors.ModelError` naming the key path and token.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -87,6 +88,7 @@ class SymbolicTransition:
     period: sp.Expr | None
     phase: sp.Expr
     declared: int = 0
+    enabled: sp.Expr = sp.Integer(1)
 
 
 @dataclass(frozen=True)
@@ -204,6 +206,51 @@ def _schedule_value(value: float | str, parameters: Mapping[str, sp.Expr], key: 
     return _parse(value, parameters, key)
 
 
+def schedule_values(period: float, phase: float, enabled: float) -> str | None:
+    """What is wrong with a schedule's values for one run, or ``None`` (also when disabled).
+
+    The one rule for every reader of schedules: disabled when ``enabled`` is zero, else the
+    period must be positive and finite and the phase finite.
+
+    Examples
+    --------
+    >>> schedule_values(0.1, 0.0, 1.0) is None, schedule_values(0.0, 0.0, 0.0) is None
+    (True, True)
+    >>> schedule_values(float("inf"), 0.0, 1.0)
+    'period: must be positive and finite (got inf)'
+    """
+    def got(value: float) -> str:
+        return "an infinite or undefined value" if math.isnan(value) else repr(value)
+
+    if enabled == 0:
+        return None
+    if not math.isfinite(enabled):
+        return f"enabled: must be finite (got {got(enabled)})"
+    if not (math.isfinite(period) and period > 0):
+        return f"period: must be positive and finite (got {got(period)})"
+    if not math.isfinite(phase):
+        return f"phase: must be finite (got {got(phase)})"
+    return None
+
+
+def schedule_problem(period: sp.Expr, phase: sp.Expr, enabled: sp.Expr,
+                     values: Mapping[sp.Symbol, sp.Expr], key: str,
+                     texts: Mapping[str, object]) -> None:
+    """Raise :class:`ModelError` when a schedule is invalid for the parameter ``values``."""
+    numbers = []
+    for expr in (period, phase, enabled):
+        value = expr.xreplace(values)
+        try:
+            numbers.append(float(value) if value.is_real is not False else math.nan)
+        except TypeError:  # not a number: a complex or undefined value
+            numbers.append(math.nan)
+    problem = schedule_values(*numbers)
+    if problem is not None:
+        field, message = problem.split(": ", 1)
+        raise _fail(f"{message} with the parameters' values", f"{key}.{field}",
+                    str(texts[field]))
+
+
 def _local_symbol(name: str) -> sp.Symbol:
     return sp.Symbol(f"_local_{name}", real=True)
 
@@ -307,6 +354,9 @@ def build_symbolic(model: Model) -> SymbolicModel:
     scopes: dict[str, _ModeScope] = {}
     for mode_name, mode in model.modes.items():
         key = f"modes.{mode_name}"
+        if mode_name in ("*", ""):
+            raise _fail("'*' stands for every mode in a transition; a mode may not be named "
+                        "'*' or ''", "modes", mode_name)
         local = _definitions(mode.definitions, names, f"{key}.definitions")
         scope = _ModeScope(mode_name, local, all_local)
         scopes[mode_name] = scope
@@ -359,11 +409,17 @@ def build_symbolic(model: Model) -> SymbolicModel:
             if state not in model.states:
                 raise _fail("reset of an unknown state", f"{key}.reset.{state}", state)
         period = phase = None
+        enabled: sp.Expr = sp.Integer(1)
         if tr.schedule is not None:
-            period, phase = (
+            period, phase, enabled = (
                 _schedule_value(value, parameter_names_map, f"{key}.schedule.{field}")
                 for field, value in (("period", tr.schedule.period),
-                                     ("phase", tr.schedule.phase)))
+                                     ("phase", tr.schedule.phase),
+                                     ("enabled", tr.schedule.enabled)))
+            defaults = {parameter_names_map[n]: sp.Float(f.value)
+                        for n, f in model.parameters.items()}
+            schedule_problem(period, phase, enabled, defaults, f"{key}.schedule",
+                             dict(tr.schedule))
         for source in sources:
             scope = scopes[source]
             guard = scope.relations(tr.guard, names, f"{key}.guard")
@@ -377,6 +433,7 @@ def build_symbolic(model: Model) -> SymbolicModel:
                 target=source if tr.target == "*" else tr.target,
                 guard=guard, reset=reset, priority=tr.priority,
                 period=period, phase=phase if phase is not None else sp.Integer(0),
+                enabled=enabled,
                 declared=declared,
             ))
 

@@ -190,20 +190,22 @@ class Mechanics(_Frozen):
 class Schedule(_Frozen):
     """Time-scheduled firing: at ``phase + k * period`` for k = 0, 1, 2, ...
 
-    ``period`` and ``phase`` are numbers or expressions of parameters (so a
-    sampling rate can be a parameter). A period that evaluates to zero or
-    less disables the schedule.
+    ``period``, ``phase`` and ``enabled`` are numbers or expressions of
+    parameters (so a sampling rate can be a parameter). The period must be
+    positive and finite and the phase finite; ``enabled`` switches the
+    transition off for a run where it evaluates to zero.
 
     Examples
     --------
     >>> Schedule(period=0.001).phase
     0.0
-    >>> Schedule(period="T_s").period
-    'T_s'
+    >>> Schedule(period="T_s", enabled="sampled").enabled
+    'sampled'
     """
 
     period: Number | Expression
     phase: Number | Expression = 0.0
+    enabled: Number | Expression = 1.0
 
 
 class Transition(_Frozen):

@@ -168,7 +168,8 @@ def reach(
     for name in bounded:
         for tr in symbolic.transitions:
             where = [("guard", [r.expr for r in tr.guard]), ("reset", list(tr.reset)),
-                     ("schedule", [e for e in (tr.period, tr.phase) if e is not None])]
+                     ("schedule", [e for e in (tr.period, tr.phase, tr.enabled)
+                                   if e is not None])]
             for part, exprs in where:
                 if any(psym[name] in as_expression(e).free_symbols for e in exprs):
                     raise ReachError(f"input {name!r} appears in the {part} of transition "
@@ -180,7 +181,7 @@ def reach(
     for name in uncertain:
         for tr in symbolic.transitions:
             if any(psym[name] in as_expression(e).free_symbols
-                   for e in (tr.period, tr.phase) if e is not None):
+                   for e in (tr.period, tr.phase, tr.enabled) if e is not None):
                 raise ReachError(f"uncertain parameter {name!r} sets the schedule of "
                                  f"transition {tr.name!r}; scheduled instants must be known")
     system = build_system(compiled, p, uncertain, bounded)

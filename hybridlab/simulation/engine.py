@@ -402,9 +402,7 @@ class _Run:
             for r, row in enumerate(rows):
                 if row.kind == "invariant" and phi0[r, 0] < -band[r]:
                     self.segments.append(pieces.freeze())
-                    raise _Stop(Status.INVARIANT_VIOLATED,
-                                f"mode {mode.name!r} entered at t = {t!r} outside its invariant "
-                                f"{mode.invariant_texts[row.ref]!r} (state {self.state_map(x)})")
+                    self.stop_outside_invariant(mode, t, x, row.ref)
         else:
             armed, floors = np.zeros(0, dtype=bool), []
         sigma = self.sigma
@@ -514,15 +512,43 @@ class _Run:
         slope = mode.invariants.derivative(t, x, self.p, _NO_SIGMA, f)[k]
         if slope >= 0 and value >= -self.o.event_atol:
             return  # touched tangentially and stays inside
-        waiting = [tr.name for tr in mode.outgoing
-                   if tr.guard is not None and not tr.scheduled
-                   and self.guard_state(tr, mode, t, x)[0] >= 0]
+        waiting = self.holding_guards(mode, t, x)
         detail = (f"; transition(s) {', '.join(waiting)} hold but just fired (a zero-dwell "
                   "self-loop)" if waiting else "")
         status = Status.ZENO if waiting else Status.INVARIANT_VIOLATED
         raise _Stop(status, f"mode {mode.name!r} at t = {t!r}: the flow leaves the invariant "
                             f"{mode.invariant_texts[k]!r} and no transition is enabled{detail}",
-                    t if waiting else None)
+                    self.accumulation(waiting, t) if waiting else None)
+
+    def holding_guards(self, mode: CompiledMode, t: float, x: np.ndarray) -> list[str]:
+        """Unscheduled transitions of ``mode`` whose guard holds at ``(t, x)``."""
+        return [tr.name for tr in mode.outgoing
+                if tr.guard is not None and not tr.scheduled
+                and self.guard_state(tr, mode, t, x)[0] >= -self.o.event_atol]
+
+    def accumulation(self, names: list[str], t: float) -> float:
+        """Where the firings of ``names`` accumulate, from their dwell times (at least ``t``)."""
+        return max((self.zeno.estimate(name, t) for name in names), default=t)
+
+    def stop_outside_invariant(self, mode: CompiledMode, t: float, x: np.ndarray,
+                               k: int) -> None:
+        """Stop a run whose mode is entered outside its invariant ``k``.
+
+        Right after a jump at this instant whose guard still holds, the state can
+        neither flow (the invariant) nor jump (the guard must first become false): the
+        automaton jumps again at once, forever. That is Zeno, not a violation.
+        """
+        text = f"mode {mode.name!r} entered at t = {t!r} outside its invariant " \
+               f"{mode.invariant_texts[k]!r} (state {self.state_map(x)})"
+        just_jumped = bool(self.events) and self.events[-1].t == t \
+            and self.events[-1].target == mode.name
+        waiting = self.holding_guards(mode, t, x) if just_jumped else []
+        if waiting:
+            t_acc = self.accumulation(waiting, t)
+            self.finish_zeno(f"{text} right after a jump, and the guard of "
+                             f"{', '.join(waiting)} still holds: the jumps accumulate at "
+                             f"t = {t_acc:.10g} (a zero-dwell self-loop)", t_acc, t, x, mode)
+        raise _Stop(Status.INVARIANT_VIOLATED, text)
 
     # ----- driver --------------------------------------------------------------------------
     def run(self, t0: float, x0: np.ndarray, mode_name: str) -> SimulationResult:

@@ -70,3 +70,24 @@ class ZenoTracker:
         if remaining <= self.tol * scale or dwell[-1] <= self.time_resolution * scale:
             return ZenoVerdict(name, self._counts[name], r, float(t + remaining))
         return None
+
+    def estimate(self, name: str, t: float) -> float:
+        """The accumulation time of ``name``'s firings extrapolated from its last two dwell
+        times (``t`` when they do not shrink or fewer than three firings are known).
+
+        Examples
+        --------
+        >>> z = ZenoTracker(window=6, tol=1e-6, time_resolution=1e-12)
+        >>> for t in (0.0, 1.0, 1.5):
+        ...     _ = z.record("bounce", t)
+        >>> z.estimate("bounce", 1.5)
+        2.0
+        """
+        times = self._times.get(name, ())
+        if len(times) < 3:
+            return t
+        d_prev, d_last = times[-2] - times[-3], times[-1] - times[-2]
+        if not 0 < d_last < d_prev:
+            return t
+        r = d_last / d_prev
+        return max(t, float(times[-1] + d_last * r / (1.0 - r)))

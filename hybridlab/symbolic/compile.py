@@ -9,7 +9,7 @@ import numpy as np
 import sympy as sp
 
 from hybridlab.errors import ModelError
-from hybridlab.model.checks import TIME, SymbolicModel
+from hybridlab.model.checks import TIME, SymbolicModel, schedule_values
 from hybridlab.model.schema import Model
 from hybridlab.symbolic.discontinuities import Switch, extract_switches
 from hybridlab.symbolic.functions import LazyMatrixFunction, MatrixFunction, VectorFunction
@@ -74,6 +74,7 @@ class CompiledTransition:
     guard: ScalarFields | None
     guard_texts: tuple[str, ...]
     reset: VectorFunction
+    declared: int = 0
 
     @property
     def scheduled(self) -> bool:
@@ -81,13 +82,26 @@ class CompiledTransition:
         return self.schedule is not None
 
     def period_and_phase(self, p: np.ndarray) -> tuple[float, float] | None:
-        """The schedule for parameters ``p``; ``None`` when disabled (period <= 0)."""
+        """The schedule for parameters ``p``; ``None`` when disabled (``enabled`` is zero).
+
+        Raises
+        ------
+        ModelError
+            When the period is not positive and finite, or the phase not finite, for ``p``.
+        """
         if self.schedule is None:
             return None
-        period, phase = self.schedule(0.0, np.empty(0), p, np.empty(0))
-        if not (np.isfinite(period) and period > 0 and np.isfinite(phase)):
+        with np.errstate(all="ignore"):
+            period, phase, enabled = map(float, self.schedule(0.0, np.empty(0), p, np.empty(0)))
+        problem = schedule_values(period, phase, enabled)
+        if problem is not None:
+            field, message = problem.split(": ", 1)
+            raise ModelError(f"{message} for this run's parameters",
+                             key=f"transitions[{self.declared}].schedule.{field}",
+                             token=self.name)
+        if enabled == 0:
             return None
-        return float(period), float(phase)
+        return period, phase
 
     @property
     def order_key(self) -> tuple[int, int, int]:
@@ -215,11 +229,12 @@ def _compile_transition(sym: SymbolicModel, index: int, cache: dict) -> Compiled
     return CompiledTransition(
         index=tr.index, name=tr.name, source=tr.source, target=tr.target,
         priority=tr.priority,
-        schedule=(VectorFunction([tr.period, tr.phase], TIME, (), sym.parameters, ())
+        schedule=(VectorFunction([tr.period, tr.phase, tr.enabled], TIME, (), sym.parameters, ())
                   if tr.period is not None else None),
         guard=cache[guard_key] if guard_exprs else None,
         guard_texts=tuple(rel.text for rel in tr.guard),
         reset=cache[reset_key],
+        declared=tr.declared,
     )
 
 
