@@ -10,11 +10,15 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
+import tempfile
+import traceback
 from collections.abc import Sequence
 from pathlib import Path
 
 from hybridlab._cliargs import finite_number, require_finite, split_assignment
+from hybridlab._files import replace_text
 from hybridlab.ensemble.cli import add_sweep_parser
 from hybridlab.errors import HybridlabError, ModelError, SimulationError
 from hybridlab.graph import check_mode_graph, to_dot
@@ -25,11 +29,16 @@ from hybridlab.model.schema import Model
 from hybridlab.reachability.cli import add_reach_parser
 from hybridlab.simulation.api import simulate
 from hybridlab.simulation.options import METHODS
+from hybridlab.simulation.result import Status
 from hybridlab.symbolic.compile import compile_model
 
 __all__ = ["main"]
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INCOMPLETE, EXIT_FINDINGS = 0, 1, 2, 3, 4
+#: the shell's code for a process ended by SIGINT; the partial result is still printed
+EXIT_INTERRUPTED = 130
+#: an unexpected internal error (a bug in hybridlab): sysexits' EX_SOFTWARE
+EXIT_BUG = 70
 
 
 class _UsageError(Exception):
@@ -84,7 +93,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
     # check every argument before the (possibly long) simulation runs
-    for option in ("t_end", "rtol", "atol", "max_step"):
+    for option in ("t_end", "rtol", "atol", "max_step", "time_limit"):
         require_finite(getattr(args, option), "--" + option.replace("_", "-"), error=_UsageError)
     params = _assignments(args.set, "--set")
     initial = _assignments(args.init, "--init")
@@ -97,6 +106,9 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         kwargs["zeno"] = args.zeno
     if args.backend:
         kwargs["backend"] = args.backend
+    for option in ("max_steps", "time_limit"):
+        if getattr(args, option) is not None:
+            kwargs[option] = getattr(args, option)
     result = simulate(
         model, args.t_end, scenario=args.scenario, params=params, initial=initial,
         mode=args.mode, rtol=args.rtol, atol=args.atol, method=args.method,
@@ -114,6 +126,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         print(f"zeno_time: {result.zeno_time:.12g}")
     if args.out:
         print(f"wrote {args.out}")
+    if result.status is Status.INTERRUPTED:
+        return EXIT_INTERRUPTED
     return EXIT_OK if result.status.ok else EXIT_INCOMPLETE
 
 
@@ -128,7 +142,7 @@ def _cmd_graph(args: argparse.Namespace) -> int:
         return EXIT_OK if report.ok else EXIT_FINDINGS
     text = to_dot(model)
     if args.out:
-        Path(args.out).write_text(text)
+        replace_text(args.out, text)
         print(f"wrote {args.out}")
     else:
         print(text, end="")
@@ -138,7 +152,7 @@ def _cmd_graph(args: argparse.Namespace) -> int:
 def _cmd_schema(args: argparse.Namespace) -> int:
     text = json.dumps(model_json_schema(), indent=2) + "\n"
     if args.out:
-        Path(args.out).write_text(text)
+        replace_text(args.out, text)
     else:
         print(text, end="")
     return EXIT_OK
@@ -165,6 +179,10 @@ def _parser() -> _Parser:
     sim.add_argument("--method", choices=METHODS)
     sim.add_argument("--max-step", type=float, dest="max_step")
     sim.add_argument("--zeno", choices=("stop", "error"))
+    sim.add_argument("--max-steps", type=int, dest="max_steps",
+                     help="integrator steps before stopping with STEP_LIMIT (default 10000000)")
+    sim.add_argument("--time-limit", type=float, dest="time_limit", metavar="SECONDS",
+                     help="wall-clock seconds before stopping with TIME_LIMIT")
     sim.add_argument("--backend", choices=("auto", "compiled", "reference"),
                      help="simulation backend (default: compiled when numba is installed)")
     sim.add_argument("--out", help="write the result (.json, .csv or .npz)")
@@ -217,6 +235,27 @@ def main(argv: Sequence[str] | None = None) -> int:
         text = " ".join(str(exc).split())
         print(f"hybridlab: error: {text}", file=sys.stderr)
         return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("hybridlab: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except Exception as exc:  # noqa: BLE001 - one line and a report, never a traceback
+        report = _write_report(argv)
+        where = f"the full report is in {report}" if report else "no report could be written"
+        print(f"hybridlab: internal error ({type(exc).__name__}); please report it: {where}",
+              file=sys.stderr)
+        return EXIT_BUG
+
+
+def _write_report(argv: Sequence[str] | None) -> str | None:
+    """Write the traceback of the exception being handled to a new file; its path."""
+    try:
+        fd, path = tempfile.mkstemp(prefix="hybridlab-report-", suffix=".txt")
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(f"hybridlab {sys.argv[1:] if argv is None else list(argv)!r}\n\n")
+            fh.write(traceback.format_exc())
+    except OSError:
+        return None
+    return path
 
 
 if __name__ == "__main__":  # pragma: no cover

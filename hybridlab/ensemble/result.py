@@ -7,9 +7,11 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 import numpy as np
+
+from hybridlab._files import replace_file
 
 __all__ = ["Pivot", "SweepResult"]
 
@@ -146,11 +148,13 @@ class SweepResult:
                 return repr(value)
             return str(value)
 
-        with Path(path).open("w", newline="") as fh:
+        def write(fh: IO[str]) -> None:
             writer = csv.writer(fh)
             writer.writerow(self.columns)
             for row in self.rows:
                 writer.writerow([cell(v) for v in row])
+
+        replace_file(path, write)
 
     def pivot(self, index: str, columns: str, values: str) -> Pivot:
         """Lay the column ``values`` out over two swept inputs.

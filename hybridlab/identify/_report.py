@@ -8,6 +8,8 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
+from hybridlab._files import replace_file, replace_text
+
 __all__ = ["format_table", "axes", "save_figure", "write_json"]
 
 
@@ -57,7 +59,8 @@ def save_figure(ax: Any, path: str | Path) -> None:
     first = ax.flat[0] if hasattr(ax, "flat") else ax
     fig = first.figure
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    suffix = Path(path).suffix.lstrip(".").lower() or "png"
+    replace_file(path, lambda fh: fig.savefig(fh, dpi=120, format=suffix), binary=True)
 
 
 def write_json(path: str | Path, payload: Mapping[str, Any]) -> None:
@@ -72,4 +75,4 @@ def write_json(path: str | Path, payload: Mapping[str, Any]) -> None:
             return [clean(v) for v in value]
         return value
 
-    Path(path).write_text(json.dumps(clean(dict(payload)), indent=1) + "\n", encoding="utf-8")
+    replace_text(path, json.dumps(clean(dict(payload)), indent=1) + "\n")

@@ -18,9 +18,11 @@ import csv
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import IO
 
 import numpy as np
 
+from hybridlab._files import replace_file
 from hybridlab.identify.errors import DataError
 
 __all__ = [
@@ -278,9 +280,11 @@ def write_csv(path: str | Path, columns: dict[str, Sequence[object]]) -> None:
     n = {len(v) for v in columns.values()}
     if len(n) > 1:
         raise ValueError(f"columns must have equal lengths (got {n})")
-    with open(path, "w", newline="", encoding="utf-8") as fh:
+    def write(fh: IO[str]) -> None:
         writer = csv.writer(fh)
         writer.writerow(names)
         for row in zip(*(columns[c] for c in names), strict=True):
             writer.writerow([repr(float(x)) if isinstance(x, float | np.floating) else x
                              for x in row])
+
+    replace_file(path, write)

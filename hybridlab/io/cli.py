@@ -12,8 +12,8 @@ are raised as hybridlab errors (``ValueError``) for the caller to print in one l
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
+from hybridlab._files import replace_text
 from hybridlab.io.spaceex import ConstraintSet, SpaceExProblem, load_spaceex
 from hybridlab.model.loader import dumps_model
 
@@ -66,7 +66,7 @@ def _run_spaceex(args: argparse.Namespace) -> int:
     problem = load_spaceex(args.model, args.cfg, system=args.system)
     text = problem_header(problem) + "\n" + dumps_model(problem.model)
     if args.out:
-        Path(args.out).write_text(text, encoding="utf-8")
+        replace_text(args.out, text)
         print(f"wrote {args.out}")
     else:
         print(text, end="")

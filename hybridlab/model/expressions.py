@@ -209,6 +209,10 @@ class _Builder:
             if part in self.finite:
                 continue
             seen.append(part)
+            if part is sp.I or (part.args and not part.free_symbols
+                                and part.is_extended_real is False):
+                # sqrt(-1), log(-2), asin(2), (-8)**(1/3): complex constants
+                raise ExpressionError("not a real number", self.token(node))
             if part.args:
                 stack.extend(part.args)
             elif not _is_finite_number(part):

@@ -20,6 +20,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from hybridlab._cliargs import finite_number, require_finite, split_assignment
+from hybridlab._files import replace_text
 from hybridlab.model.loader import load_model
 from hybridlab.reachability.falsify import FalsifyOptions
 from hybridlab.reachability.spec import Avoid
@@ -114,7 +115,7 @@ def _run(args: argparse.Namespace) -> int:
                     executor=args.workers, **overrides)
     _print(verdict)
     if out is not None:
-        out.write_text(json.dumps(verdict.as_dict(), indent=1) + "\n")
+        replace_text(out, json.dumps(verdict.as_dict(), indent=1) + "\n")
         print(f"wrote {args.out}")
     return EXIT_CODES[verdict.status]
 

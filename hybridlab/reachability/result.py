@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from hybridlab._files import replace_text
 from hybridlab.model.expressions import as_expression, parse_expression
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.sets import Zonotope
@@ -268,7 +269,7 @@ class ReachResult:
         """:meth:`as_dict` as JSON text, also written to ``path`` if given."""
         text = json.dumps(self.as_dict(include_sets), indent=2)
         if path is not None:
-            Path(path).write_text(text + "\n")
+            replace_text(path, text + "\n")
         return text
 
 

@@ -114,6 +114,10 @@ def simulate(
     if unknown:
         raise TypeError(f"simulate() got unknown option(s): {', '.join(sorted(unknown))}")
     opts = SimulationOptions(**{**base.__dict__, **settings})
+    if (float(t_end) - float(t0)) / opts.max_step > opts.max_steps:
+        raise ValueError(f"max_step = {opts.max_step!r} needs more than max_steps = "
+                         f"{opts.max_steps} steps to reach t_end = {t_end!r}: raise max_step "
+                         "or max_steps")
     if use_compiled(opts.backend):
         from hybridlab.simulation.compiled.backend import run as run_compiled
 

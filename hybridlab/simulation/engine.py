@@ -19,6 +19,7 @@ Semantics are specified in ``docs/semantics.md``; in short:
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -79,8 +80,10 @@ class _Pieces:
 
 class _Run:
     def __init__(self, compiled: CompiledModel, p: np.ndarray, options: SimulationOptions,
-                 t_end: float) -> None:
+                 t_end: float, deadline: int | None = None) -> None:
         self.c = compiled
+        #: the wall-clock deadline in ``time.monotonic_ns()`` (``None``: no limit)
+        self.deadline = deadline if deadline is not None else deadline_of(options)
         self.p = p
         self.o = options
         self.t_end = t_end
@@ -163,6 +166,12 @@ class _Run:
         g = tr.guard.values(t, x, self.p, _NO_SIGMA)
         f = mode.flow(t, x, self.p, self.sigma_at(mode, t, x))
         dg = tr.guard.derivative(t, x, self.p, _NO_SIGMA, f)
+        undefined = np.flatnonzero(~np.isfinite(g))
+        if undefined.size:
+            k = int(undefined[0])
+            raise _Stop(Status.SOLVER_FAILED,
+                        f"the guard of {tr.name!r} ({tr.guard_texts[k]}) is {float(g[k])!r} at "
+                        f"t = {t!r} in mode {mode.name!r} (state {self.state_map(x)})")
         i = int(np.argmin(g))
         return float(g[i]), float(dg[i])
 
@@ -177,7 +186,11 @@ class _Run:
         if tr.index == previous:
             return False  # no re-triggering right after its own reset
         value, slope = self.guard_state(tr, mode, t, x)
-        band = 8 * self.xtol(t) * abs(slope) + self.o.event_atol
+        if math.isnan(slope):
+            slope = 0.0
+        # a vertical tangent (infinite slope) gives no time band
+        band = (8 * self.xtol(t) * abs(slope) if math.isfinite(slope) else 0.0) \
+            + self.o.event_atol
         if value < -band:
             return False
         return not (value <= band and slope < 0)  # touching the boundary while leaving
@@ -429,38 +442,98 @@ class _Run:
             kwargs["jac"] = jac
         if self.h_last is not None:
             kwargs["first_step"] = min(self.h_last, t_stop - t)
+        self.check_finite(mode, t, x, rhs(t, x), rows, pieces)
         solver = _SOLVERS[self.o.method](rhs, t, x, t_stop, **kwargs)
         triggers: list[Trigger] = []
-        while True:
-            message = solver.step()
-            self.stats["steps"] += 1
-            if solver.status == "failed":
-                self.segments.append(pieces.freeze())
-                raise _Stop(Status.SOLVER_FAILED,
-                            f"{self.o.method} failed at t = {solver.t!r} in mode {mode.name!r}: "
-                            f"{message}")
-            t_old, t_new = float(solver.t_old), float(solver.t)
-            self.h_last = t_new - t_old
-            dense = solver.dense_output()
-            triggers, armed = self.scan(mode, rows, armed, floors, dense, t_old, t_new)
-            floors = [None if a else f for a, f in zip(armed, floors, strict=True)]
-            if triggers:
-                t_event = min(tr.t for tr in triggers)
-                x_event = dense(t_event)
-                pieces.t.append(t_event)
-                pieces.y.append(x_event)
+        try:
+            while True:
+                message = solver.step()
+                self.stats["steps"] += 1
+                if solver.status == "failed":
+                    self.stop_in_flow(pieces, t, x, mode, Status.SOLVER_FAILED,
+                                      f"{self.o.method} failed at t = {float(solver.t)!r} in mode "
+                                      f"{mode.name!r}: {message}")
+                t_old, t_new = float(solver.t_old), float(solver.t)
+                self.h_last = t_new - t_old
+                dense = solver.dense_output()
+                triggers, armed = self.scan(mode, rows, armed, floors, dense, t_old, t_new)
+                floors = [None if a else f for a, f in zip(armed, floors, strict=True)]
+                if triggers:
+                    t_event = min(tr.t for tr in triggers)
+                    x_event = dense(t_event)
+                    pieces.t.append(t_event)
+                    pieces.y.append(x_event)
+                    pieces.dense.append(dense)
+                    t, x = t_event, x_event
+                    break
+                if not np.all(np.isfinite(solver.y)):  # (scipy rejects non-finite steps: a guard)
+                    self.stop_in_flow(pieces, t, x, mode, Status.SOLVER_FAILED,
+                                      f"the state became non-finite after t = {t!r} in mode "
+                                      f"{mode.name!r}")
+                pieces.t.append(t_new)
+                pieces.y.append(solver.y.copy())
                 pieces.dense.append(dense)
-                t, x = t_event, x_event
-                break
-            pieces.t.append(t_new)
-            pieces.y.append(solver.y.copy())
-            pieces.dense.append(dense)
-            t, x = t_new, solver.y.copy()
-            if solver.status == "finished":
-                break
+                t, x = t_new, solver.y.copy()
+                self.check_budgets(pieces, t, x, mode)
+                if solver.status == "finished":
+                    break
+        except KeyboardInterrupt:  # the run up to the last accepted step is kept
+            del pieces.t[len(pieces.dense) + 1:], pieces.y[len(pieces.dense) + 1:]
+            self.stop_in_flow(pieces, pieces.t[-1], pieces.y[-1], mode, Status.INTERRUPTED,
+                              f"interrupted at t = {pieces.t[-1]!r} in mode {mode.name!r}")
         self.segments.append(pieces.freeze())
         self.stats["segments"] += 1
         return t, x, triggers, rows
+
+    def check_finite(self, mode: CompiledMode, t: float, x: np.ndarray, f: np.ndarray,
+                     rows: list[_Monitor], pieces: _Pieces) -> None:
+        """Stop with ``SOLVER_FAILED`` naming the first non-finite state, flow or monitor at
+        the start of a flow segment (an integrator fed NaN never finishes its first step)."""
+        sym = self.c.symbolic
+        where = ""
+        for i, name in enumerate(self.names):
+            if not math.isfinite(x[i]):
+                where = f"the state {name} is {float(x[i])!r}"
+            elif not math.isfinite(f[i]):
+                where = f"the flow of {name}, {sym.modes[mode.name].flow[i]}, is {float(f[i])!r}"
+            if where:
+                break
+        if not where and rows:
+            phi = self.monitor_batch(mode, rows, np.array([t]), x[:, None])[0][:, 0]
+            bad = [r for r, value in enumerate(phi) if not math.isfinite(value)]
+            if bad:
+                row = rows[bad[0]]
+                where = f"the {row.kind} {self.monitor_text(mode, row)} is {float(phi[bad[0]])!r}"
+        if where:
+            self.stop_in_flow(pieces, t, x, mode, Status.SOLVER_FAILED,
+                              f"{where} at t = {t!r} in mode {mode.name!r} "
+                              f"(state {self.state_map(x)})")
+
+    def monitor_text(self, mode: CompiledMode, row: _Monitor) -> str:
+        """A readable form of a monitor (a guard's, invariant's or switch's text)."""
+        if row.kind == "invariant":
+            return repr(mode.invariant_texts[row.ref])
+        if row.kind == "guard":
+            tr = self.c.transitions[row.ref]
+            return f"of {tr.name!r} ({' and '.join(tr.guard_texts)})"
+        return repr(mode.switches[row.ref].text)
+
+    def check_budgets(self, pieces: _Pieces, t: float, x: np.ndarray, mode: CompiledMode) -> None:
+        """Stop at the step budget or the wall-clock deadline."""
+        if self.stats["steps"] >= self.o.max_steps:
+            self.stop_in_flow(pieces, t, x, mode, Status.STEP_LIMIT,
+                              f"{self.stats['steps']} integrator steps by t = {t!r} "
+                              f"(max_steps = {self.o.max_steps})")
+        if self.deadline is not None and time.monotonic_ns() >= self.deadline:
+            self.stop_in_flow(pieces, t, x, mode, Status.TIME_LIMIT,
+                              f"time_limit = {self.o.time_limit!r} s reached at t = {t!r}")
+
+    def stop_in_flow(self, pieces: _Pieces, t: float, x: np.ndarray, mode: CompiledMode,
+                     status: Status, message: str) -> None:
+        """End the run inside a flow segment; the result keeps what was integrated."""
+        self.segments.append(pieces.freeze())
+        self.last = (t, x, mode)
+        raise _Stop(status, message)
 
     # ----- events in flow ------------------------------------------------------------------
     def handle(self, mode: CompiledMode, t: float, x: np.ndarray, triggers: list[Trigger],
@@ -564,8 +637,14 @@ class _Run:
         fresh guards (signs already entered); ``"handle"``: a flow segment just
         ended on ``triggers`` (located with the monitors of the current sliding
         set); ``"flow"``: at the top of the main loop. The compiled backend hands
-        a run over at these points.
+        a run over at these points. Non-finite values are reported by the checks
+        of the run (status ``SOLVER_FAILED``), not by numpy's warnings.
         """
+        with np.errstate(all="ignore"):
+            return self._drive(t, x, mode, entry, triggers)
+
+    def _drive(self, t: float, x: np.ndarray, mode: CompiledMode, entry: str,
+               triggers: list[Trigger] | None = None) -> SimulationResult:
         self.last = (t, x, mode)
         status, message, zeno_time = Status.COMPLETED, "", None
         try:
@@ -592,6 +671,9 @@ class _Run:
             message = f"reached t_end = {self.t_end!r}"
         except _Stop as stop:
             status, message, zeno_time = stop.status, stop.message, stop.zeno_time
+        except KeyboardInterrupt:
+            t = self.last[0]
+            status, message = Status.INTERRUPTED, f"interrupted at t = {t!r}"
         except SimulationError:
             raise
         t, x, mode = self.last
@@ -606,7 +688,15 @@ class _Run:
         return any(self.due(tr, t) for tr in mode.outgoing)
 
 
+def deadline_of(options: SimulationOptions) -> int | None:
+    """The wall-clock deadline of a run starting now, in ``time.monotonic_ns()``."""
+    if options.time_limit is None:
+        return None
+    return time.monotonic_ns() + int(options.time_limit * 1e9)
+
+
 def run(compiled: CompiledModel, *, t0: float, x0: np.ndarray, mode: str, t_end: float,
-        p: np.ndarray, options: SimulationOptions) -> SimulationResult:
+        p: np.ndarray, options: SimulationOptions, deadline: int | None = None
+        ) -> SimulationResult:
     """Simulate ``compiled`` from ``(t0, x0, mode)`` to ``t_end`` (see ``hybridlab.simulate``)."""
-    return _Run(compiled, p, options, t_end).run(t0, x0, mode)
+    return _Run(compiled, p, options, t_end, deadline).run(t0, x0, mode)

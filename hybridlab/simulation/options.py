@@ -39,6 +39,13 @@ class SimulationOptions:
         (grazing) counts as reaching it.
     max_events : int
         Stop with status ``MAX_EVENTS`` after this many logged events.
+    max_steps : int
+        Stop with status ``STEP_LIMIT`` after this many integrator steps (the
+        budget that bounds a run whatever ``t_end`` and ``max_step`` are).
+    time_limit : float or None
+        Stop with status ``TIME_LIMIT`` once the run has taken this many
+        seconds of wall-clock time (``None``: no limit). The compiled kernel
+        looks at the clock every 16 steps.
     max_event_iterations : int
         Jumps allowed at one instant (an event cascade) before the run stops
         with status ``ZENO`` (a zero-dwell cycle).
@@ -78,6 +85,8 @@ class SimulationOptions:
     max_refine: int = 8
     event_atol: float = 1e-12
     max_events: int = 1_000_000
+    max_steps: int = 10_000_000
+    time_limit: float | None = None
     max_event_iterations: int = 100
     zeno: str = "stop"
     zeno_window: int = 6
@@ -94,7 +103,12 @@ class SimulationOptions:
                 raise ValueError(f"{name} must be a positive number (got {value!r})")
         if not self.event_atol >= 0:
             raise ValueError(f"event_atol must be >= 0 (got {self.event_atol!r})")
-        for name in ("samples_per_step", "max_events", "max_event_iterations", "zeno_window"):
+        if self.time_limit is not None and (not isinstance(self.time_limit, int | float)
+                                            or not self.time_limit > 0):
+            raise ValueError(f"time_limit must be a positive number of seconds or None "
+                             f"(got {self.time_limit!r})")
+        for name in ("samples_per_step", "max_events", "max_event_iterations", "zeno_window",
+                     "max_steps"):
             value = getattr(self, name)
             if not isinstance(value, int) or value < 1:
                 raise ValueError(f"{name} must be a positive integer (got {value!r})")

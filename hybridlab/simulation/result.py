@@ -8,10 +8,11 @@ import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 import numpy as np
 
+from hybridlab._files import replace_file, replace_text
 from hybridlab.simulation.tables import Event, EventTable, Segment, SegmentTable
 
 __all__ = ["Status", "Event", "Segment", "FinalState", "SimulationResult"]
@@ -29,6 +30,10 @@ class Status(enum.Enum):
     MAX_EVENTS = "stopped after max_events events: raise max_events if this is expected"
     SOLVER_FAILED = ("the integrator failed: try a stiff method (Radau, BDF), looser tolerances, "
                      "or check the flow for singularities")
+    STEP_LIMIT = ("stopped after max_steps integrator steps: raise max_steps if this is "
+                  "expected, or check t_end and max_step")
+    TIME_LIMIT = "stopped at the wall-clock limit time_limit: raise it if this is expected"
+    INTERRUPTED = "interrupted (Ctrl-C): the result holds the run up to that point"
 
     @property
     def ok(self) -> bool:
@@ -236,23 +241,27 @@ class SimulationResult:
         """Write (or return) the JSON form."""
         text = json.dumps(self.as_dict(), indent=1)
         if path is not None:
-            Path(path).write_text(text)
+            replace_text(path, text)
         return text
 
     def to_csv(self, path: str | Path) -> None:
         """Write the stored trajectory as CSV with columns ``t, j, mode, <states>``."""
         y = self.y
-        with Path(path).open("w", newline="") as fh:
+
+        def write(fh: IO[str]) -> None:
             writer = csv.writer(fh)
             writer.writerow(["t", "j", "mode", *self.state_names])
             for k, (tk, jk, mk) in enumerate(zip(self.t, self.j, self.modes, strict=True)):
                 writer.writerow([repr(float(tk)), int(jk), mk, *(repr(float(v)) for v in y[:, k])])
 
+        replace_file(path, write)
+
     def to_npz(self, path: str | Path) -> None:
-        """Write arrays ``t, j, y, state_names, modes`` and the event log to an NPZ file."""
+        """Write arrays ``t, j, y, state_names, modes`` and the event log to an NPZ file
+        (at ``path`` exactly: no suffix is added)."""
         events = self.events
-        np.savez(
-            path, t=self.t, j=self.j, y=self.y, state_names=np.array(self.state_names),
+        replace_file(path, lambda fh: np.savez(
+            fh, t=self.t, j=self.j, y=self.y, state_names=np.array(self.state_names),
             modes=np.array(self.modes), status=np.array(self.status.name),
             event_t=np.array([e.t for e in events]), event_j=np.array([e.j for e in events]),
             event_transition=np.array([e.transition for e in events], dtype=str),
@@ -260,7 +269,7 @@ class SimulationResult:
                                dtype=float).reshape(len(events), len(self.state_names)),
             event_post=np.array([[e.post[n] for n in self.state_names] for e in events],
                                 dtype=float).reshape(len(events), len(self.state_names)),
-        )
+        ), binary=True)
 
     def save(self, path: str | Path) -> None:
         """Write by suffix: ``.json``, ``.csv`` or ``.npz``."""

@@ -22,11 +22,12 @@ import hashlib
 import importlib.util
 import os
 import sys
+import time
 import weakref
 from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from functools import partial
+from functools import cache, partial
 from itertools import accumulate, chain
 from pathlib import Path
 from types import ModuleType
@@ -46,14 +47,18 @@ from hybridlab.simulation.compiled.integrate import METHOD_CODES
 from hybridlab.simulation.compiled.kernel import (
     COMPLETED,
     HANDOFF,
+    INTERRUPTED,
     MAX_EVENTS,
     R_FLOW,
     R_HANDLE,
     R_ITERATE,
     R_START,
+    STEP_LIMIT,
+    TIME_LIMIT,
     ZENO,
     run_kernel,
 )
+from hybridlab.simulation.compiled.signatures import watch_addresses
 from hybridlab.simulation.location import Trigger
 from hybridlab.simulation.options import SimulationOptions
 from hybridlab.simulation.result import FinalState, SimulationResult, Status
@@ -359,16 +364,25 @@ def run(compiled: CompiledModel, *, t0: float, x0: np.ndarray, mode: str, t_end:
     zcount = np.zeros(max(n_keys, 1), dtype=np.int64)
     sched_done = np.full(max(n_tr, 1), -1, dtype=np.int64)
     m0 = prep.mode_names.index(mode)
+    deadline = engine.deadline_of(o)
+    watch = np.array([o.max_steps, *_watched(), time.CLOCK_MONOTONIC, deadline or 0],
+                     dtype=np.int64)
     # the generated functions by address (prep.module keeps them alive)
     args = (prep.module.model.address, prep.module.box.address, ints, reals, opts_i, opts_f,
             float(t0), np.ascontiguousarray(x0, dtype=float), m0, float(t_end),
-            np.ascontiguousarray(p, dtype=float), prep.n_sig, ztimes, zcount, sched_done)
+            np.ascontiguousarray(p, dtype=float), prep.n_sig, ztimes, zcount, sched_done, watch)
     out = prep.kernel_entry(args)(*args)
     code, EV, PT, ST, SG, kstats, info, last_t, last_x, last_m, j = out[:11]
     if code == HANDOFF:
-        return _hand_off(compiled, prep, o, out, p, float(t_end), kw)
+        return _hand_off(compiled, prep, o, out, p, float(t_end), {**kw, "deadline": deadline})
     return _result(compiled, prep, o, code, EV, PT, ST, SG, kstats, info, last_t, last_x,
                    last_m, j, p, float(t_end))
+
+
+@cache
+def _watched() -> tuple[int, int]:
+    """The addresses the kernel polls for Ctrl-C and the time (fixed for the process)."""
+    return watch_addresses()
 
 
 _ENTRIES = {R_ITERATE: "iterate", R_HANDLE: "handle", R_FLOW: "flow"}
@@ -382,7 +396,7 @@ def _hand_off(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, out
     kind, m, j, nev, nsg = (int(v) for v in cp_i[:5])
     if kind == R_START:
         return _fallback(compiled, "the kernel could not enter the initial mode", **kw)
-    run = engine._Run(compiled, p, o, t_end)
+    run = engine._Run(compiled, p, o, t_end, kw.get("deadline"))
     mode = compiled.modes[prep.mode_names[m]]
     events, segments = _records(compiled, prep, o, EV[:nev], PT, ST, SG[:nsg])
     run.events = list(events)
@@ -505,6 +519,13 @@ def _result(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, code:
         if o.zeno == "error":
             raise ZenoError(f"Zeno behaviour: {text}")
         status, message, zeno_time = Status.ZENO, text, float(info[3])
+    elif code == STEP_LIMIT:
+        status, message = Status.STEP_LIMIT, (f"{int(kstats[0])} integrator steps by t = {t!r} "
+                                              f"(max_steps = {o.max_steps})")
+    elif code == TIME_LIMIT:
+        status, message = Status.TIME_LIMIT, f"time_limit = {o.time_limit!r} s reached at t = {t!r}"
+    elif code == INTERRUPTED:
+        status, message = Status.INTERRUPTED, f"interrupted at t = {t!r}"
     else:  # pragma: no cover - the kernel returns only the codes above
         raise RuntimeError(f"unknown kernel code {code}")
     stats = {"steps": int(kstats[0]), "refinements": int(kstats[1]),

@@ -106,7 +106,7 @@ def initial_step(model, fc, t0, y0, f0, t_bound, max_step, order, rtol, atol, p,
     f1 = np.empty_like(y0)
     rhs(model, fc, t0 + h0, y1, p, sig, f1)
     d2 = _rms((f1 - f0) / scale) / h0
-    if d1 <= 1e-15 and d2 <= 1e-15:
+    if (d1 <= 1e-15 and d2 <= 1e-15) or d2 != d2:  # NaN: the probe left the flow's domain
         h1 = max(1e-6, h0 * 1e-3)
     else:
         h1 = (0.01 / max(d1, d2)) ** (1.0 / (order + 1))
@@ -201,7 +201,7 @@ def rk_step(model, method, fc, t, y, f, t_bound, h_abs_in, max_step, rtol, atol,
     min_step = 10 * abs(np.nextafter(t, np.inf) - t)
     if h_abs_in > max_step:
         h_abs = max_step
-    elif h_abs_in < min_step:
+    elif not h_abs_in >= min_step:  # also a NaN step
         h_abs = min_step
     else:
         h_abs = h_abs_in
@@ -231,7 +231,9 @@ def rk_step(model, method, fc, t, y, f, t_bound, h_abs_in, max_step, rtol, atol,
                 factor = min(1.0, factor)
             h_abs *= factor
             return True, t_new, h_abs, h
-        h_abs *= max(_MIN_FACTOR, _SAFETY * err ** exponent)
+        # a non-finite stage gives a NaN error: shrink as far as allowed (scipy's max() does
+        # the same by argument order); the step then fails below min_step, never loops
+        h_abs *= _MIN_FACTOR if err != err else max(_MIN_FACTOR, _SAFETY * err ** exponent)
         rejected = True
 
 

@@ -42,7 +42,7 @@ from hybridlab.simulation.compiled.integrate import (
     rk_step,
 )
 from hybridlab.simulation.compiled.locate import EXIT, GUARD, INVARIANT, SWITCH, monitors_at, scan
-from hybridlab.simulation.compiled.signatures import model_at, ptr
+from hybridlab.simulation.compiled.signatures import clock_at, interrupt_at, model_at, ptr
 from hybridlab.simulation.compiled.sliding import (
     OK,
     active_indices,
@@ -54,10 +54,15 @@ from hybridlab.simulation.compiled.sliding import (
     workspace,
 )
 
-__all__ = ["run_kernel", "COMPLETED", "ZENO", "MAX_EVENTS", "HANDOFF", "R_START", "R_ITERATE",
+__all__ = ["run_kernel", "COMPLETED", "ZENO", "MAX_EVENTS", "HANDOFF", "STEP_LIMIT", "TIME_LIMIT",
+           "INTERRUPTED", "R_START", "R_ITERATE",
            "R_HANDLE", "R_FLOW"]
 
 COMPLETED, ZENO, MAX_EVENTS, HANDOFF = 0, 1, 2, 3
+#: the run's budgets: ``max_steps`` integrator steps, the wall-clock deadline, Ctrl-C
+STEP_LIMIT, TIME_LIMIT, INTERRUPTED = 4, 5, 6
+#: steps between two looks at the clock and for Ctrl-C (each look costs tens of ns)
+_WATCH_EVERY = 16
 #: where a hand-off resumes: from the start, at an event iteration without fresh guards,
 #: at the handling of a flow segment's triggers, at the start of a flow segment
 R_START, R_ITERATE, R_HANDLE, R_FLOW = 0, 1, 2, 3
@@ -153,8 +158,14 @@ def _log(EV, nev, t, j, ref, source, target, kind, grazing, pre, post):
 
 @numba.njit(cache=True)
 def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m, t_end, p,
-               n_sig, ztimes, zcount, sched_done):
+               n_sig, ztimes, zcount, sched_done, watch):
     """Run from ``(t, x, m)`` to ``t_end``; see the module docstring for the records.
+
+    ``watch``: the step budget, the addresses of ``PyOS_InterruptOccurred`` and
+    ``clock_gettime``, the clock's id and the wall-clock deadline in its
+    nanoseconds (0: none). Every :data:`_WATCH_EVERY` steps the kernel looks for
+    Ctrl-C and at the clock, and stops with :data:`INTERRUPTED` or
+    :data:`TIME_LIMIT`; after ``watch[0]`` steps it stops with :data:`STEP_LIMIT`.
 
     ``model_address`` and ``box_address`` are the addresses of the generated
     model's point and box functions (:mod:`.codegen`; ``cfunc.address``).
@@ -171,6 +182,9 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
     checkpoint (meaningful for :data:`HANDOFF`).
     """
     model, box = model_at(model_address), model_at(box_address)
+    max_steps, interrupted, clock = watch[0], interrupt_at(watch[1]), clock_at(watch[2])
+    clock_id, deadline = np.int32(watch[3]), watch[4]
+    now = np.zeros(2, dtype=np.int64)
     (fgs, cgs, sgs, ggs, dgs, inv_off, n_inv, n_sw, affine, out_ptr, out_list, tr_target,
      tr_guard, tr_monitored, tr_sched, tr_sched_on, tr_reset, sw_key, tr_zkey, n_cond, _,
      _, _, _, inv_box) = ints
@@ -363,14 +377,23 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
                           ptr(gd))
                     value, slope = gv[0], gd[0]
                     for q in range(1, tr_monitored[n_tr + tr]):
-                        if gv[q] < value:
+                        if gv[q] < value or not np.isfinite(gv[q]):
                             value, slope = gv[q], gd[q]
+                    if not np.isfinite(value):
+                        code = HANDOFF  # the reference engine names the undefined guard
+                        stop = True
+                        break
+                    if not np.isfinite(slope):  # a vertical tangent: no time band
+                        slope = 0.0 if slope != slope else slope
+                        xt_slope = 0.0
+                    else:
+                        xt_slope = 8 * xt * abs(slope)
                     if tr_sched[tr] == 1:
                         if value >= 0:
                             chosen = tr
                             break
                         continue
-                    band = 8 * xt * abs(slope) + event_atol
+                    band = xt_slope + event_atol
                     if value < -band:
                         continue
                     if not (value <= band and slope < 0):
@@ -524,6 +547,11 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
                     fcur[i] = ws[1][i]
             else:
                 rhs(model, fc, t, x, p, sig, fcur)
+            for i in range(n):
+                if not (np.isfinite(fcur[i]) and np.isfinite(x[i])):
+                    code = HANDOFF  # the reference engine names the non-finite flow
+            if code == HANDOFF:
+                break
             if h_last > 0:
                 h_abs = min(h_last, t_stop - t)
             else:
@@ -590,7 +618,16 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
                 t = t_new
                 x[:] = y_new
                 fcur[:] = f_new
-                if t_new >= t_stop:
+                if stats[0] >= max_steps:
+                    code = STEP_LIMIT
+                elif stats[0] % _WATCH_EVERY == 0:
+                    if interrupted() != 0:
+                        code = INTERRUPTED
+                    elif deadline > 0:
+                        clock(clock_id, ptr(now))
+                        if now[0] * 1_000_000_000 + now[1] >= deadline:
+                            code = TIME_LIMIT
+                if t_new >= t_stop or code != COMPLETED:
                     break
             SG[nsg, 3] = npt - SG[nsg, 2]
             SG[nsg, 5] = nst - SG[nsg, 4]
@@ -600,6 +637,8 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
             stats[3] += 1
             last_t, last_m = t, m
             last_x[:] = x
+            if code != COMPLETED:
+                break
             if hit_n > 0:
                 action = _HANDLE
                 continue

@@ -3,6 +3,7 @@ settings (:data:`borrowing`, :data:`counted`)."""
 
 from __future__ import annotations
 
+import ctypes
 from functools import partial
 
 import numba
@@ -11,7 +12,8 @@ from numba.core import cgutils
 from numba.core.cpu import CPUTargetOptions
 from numba.extending import intrinsic
 
-__all__ = ["MODEL_SIGNATURE", "MODEL_TYPE", "ptr", "ptr_at", "borrowing", "counted", "model_at"]
+__all__ = ["MODEL_SIGNATURE", "MODEL_TYPE", "ptr", "ptr_at", "borrowing", "counted", "model_at",
+           "interrupt_at", "clock_at", "watch_addresses"]
 
 _PTR = types.CPointer(types.float64)
 
@@ -22,24 +24,50 @@ MODEL_SIGNATURE = types.void(types.int64, types.int64, types.float64, _PTR, _PTR
 MODEL_TYPE = types.FunctionType(MODEL_SIGNATURE)
 
 
-@intrinsic
-def model_at(typingctx, address):  # noqa: ARG001 - numba intrinsic protocol
-    """The generated function whose C entry point is at ``address`` (a ``cfunc``'s
-    ``address``), as a value of :data:`MODEL_TYPE`.
+def _function_at(function_type: types.FunctionType, doc: str):
+    """An intrinsic turning a C entry point's address into a callable of ``function_type``.
+
+    Addresses are arguments, never constants, so the kernel's machine code stays
+    cacheable across processes.
+    """
+    @intrinsic
+    def at(typingctx, address):  # noqa: ARG001 - numba intrinsic protocol
+        sig = function_type(types.int64)
+
+        def codegen(context, builder, signature, args):
+            fn = cgutils.create_struct_proxy(function_type)(
+                context, builder, value=context.get_constant_null(function_type))
+            fn.c_addr = builder.inttoptr(args[0], cgutils.voidptr_t)  # called through C
+            return fn._getvalue()
+
+        return sig, codegen
+
+    at.__doc__ = doc
+    return at
+
+
+model_at = _function_at(MODEL_TYPE, """The generated function whose C entry point is at
+    ``address`` (a ``cfunc``'s ``address``), as a value of :data:`MODEL_TYPE`.
 
     Passing the ``cfunc`` object itself costs numba's unboxing of a first-class
     function (about 7 µs of Python per argument and call); an address is an
     integer. The caller keeps the ``cfunc`` alive while the kernel runs.
-    """
-    sig = MODEL_TYPE(types.int64)
+    """)
 
-    def codegen(context, builder, signature, args):
-        fn = cgutils.create_struct_proxy(MODEL_TYPE)(
-            context, builder, value=context.get_constant_null(MODEL_TYPE))
-        fn.c_addr = builder.inttoptr(args[0], cgutils.voidptr_t)  # called through its C entry
-        return fn._getvalue()
+#: ``int PyOS_InterruptOccurred(void)``: true once after a SIGINT (Ctrl-C), which it consumes
+interrupt_at = _function_at(types.FunctionType(types.intc()),
+                            "CPython's ``PyOS_InterruptOccurred`` at ``address``.")
+#: ``int clock_gettime(clockid_t, struct timespec *)``, the timespec as two int64
+clock_at = _function_at(types.FunctionType(types.intc(types.intc, types.CPointer(types.int64))),
+                        "The C library's ``clock_gettime`` at ``address``.")
 
-    return sig, codegen
+
+def watch_addresses() -> tuple[int, int]:
+    """The addresses of ``PyOS_InterruptOccurred`` and ``clock_gettime`` in this process."""
+    interrupted = ctypes.pythonapi.PyOS_InterruptOccurred
+    clock = ctypes.CDLL(None).clock_gettime
+    return (ctypes.cast(interrupted, ctypes.c_void_p).value or 0,
+            ctypes.cast(clock, ctypes.c_void_p).value or 0)
 
 
 @intrinsic

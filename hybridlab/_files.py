@@ -1,0 +1,85 @@
+"""Output files replaced atomically: a failed write never costs the user the old file.
+
+Every file hybridlab writes for a user (results, tables, reports, figures, DOT text,
+schemas, imported models) goes through :func:`replace_file`: the content is written to
+a temporary file in the target's folder, flushed to disk, and only then renamed over the
+target (``os.replace``, atomic on POSIX and Windows). A full disk, a killed process or
+an exception while writing leaves the old file exactly as it was and no partial file
+behind. The new file gets the old file's permissions, or the ordinary ones (``0o666``
+less the umask) when there was none.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import stat
+import tempfile
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import IO, Any
+
+__all__ = ["replace_file", "replace_text", "replaced"]
+
+
+def _mode_for(path: Path) -> int:
+    try:
+        return stat.S_IMODE(path.stat().st_mode)
+    except FileNotFoundError:
+        umask = os.umask(0)
+        os.umask(umask)
+        return 0o666 & ~umask
+
+
+@contextlib.contextmanager
+def replaced(path: str | Path, mode: str = "w", **open_args: Any) -> Iterator[IO[Any]]:
+    """A file object whose content replaces ``path`` when the block ends without error.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> target = pathlib.Path(tempfile.mkdtemp()) / "out.txt"
+    >>> _ = target.write_text("old")
+    >>> try:
+    ...     with replaced(target) as fh:
+    ...         _ = fh.write("new, half written")
+    ...         raise OSError("disk full")
+    ... except OSError:
+    ...     pass
+    >>> target.read_text(), sorted(p.name for p in target.parent.iterdir())
+    ('old', ['out.txt'])
+    >>> with replaced(target) as fh:
+    ...     _ = fh.write("new")
+    >>> target.read_text()
+    'new'
+    """
+    target = Path(path)
+    permissions = _mode_for(target)
+    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, mode, **open_args) as fh:
+            yield fh
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.chmod(tmp, permissions)
+        os.replace(tmp, target)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+        raise
+
+
+def replace_file(path: str | Path, write: Callable[[IO[Any]], object], binary: bool = False,
+                 ) -> None:
+    """Replace ``path`` atomically with what ``write`` writes to the file object it gets."""
+    if binary:
+        with replaced(path, "wb") as fh:
+            write(fh)
+    else:
+        with replaced(path, "w", encoding="utf-8", newline="") as fh:
+            write(fh)
+
+
+def replace_text(path: str | Path, text: str) -> None:
+    """Replace ``path`` atomically with ``text`` (UTF-8)."""
+    replace_file(path, lambda fh: fh.write(text))

@@ -1,0 +1,105 @@
+"""Output files are replaced atomically; the CLI never prints a traceback.
+
+A failure while writing ``--out`` (a full disk) used to destroy the old file and leave a
+truncated one; ``--out up.NPZ`` wrote ``up.NPZ.npz`` and said it wrote ``up.NPZ``; an
+internal error printed a 40-line traceback.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import hybridlab
+from hybridlab import cli
+from hybridlab._files import replaced
+
+
+def _disk_full(*_args, **_kwargs):
+    raise OSError(errno.ENOSPC, "No space left on device")
+
+
+@pytest.mark.parametrize("suffix", [".json", ".csv", ".npz"])
+def test_a_failed_write_keeps_the_old_file_and_leaves_nothing_behind(tmp_path, monkeypatch,
+                                                                      suffix):
+    result = hybridlab.simulate("models/bouncing_ball.toml", t_end=1.0)
+    target = tmp_path / f"result{suffix}"
+    target.write_bytes(b"precious")
+    monkeypatch.setattr(os, "fsync", _disk_full)
+    with pytest.raises(OSError, match="No space left"):
+        result.save(target)
+    assert target.read_bytes() == b"precious"
+    assert sorted(p.name for p in tmp_path.iterdir()) == [target.name]
+
+
+def test_the_cli_reports_a_full_disk_in_one_line_and_keeps_the_old_file(tmp_path, monkeypatch,
+                                                                          capsys):
+    target = tmp_path / "out.json"
+    target.write_text("precious")
+    monkeypatch.setattr(os, "fsync", _disk_full)
+    code = cli.main(["simulate", "models/bouncing_ball.toml", "--t-end", "1",
+                     "--out", str(target)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "No space left on device" in err
+    assert target.read_text() == "precious"
+
+
+@pytest.mark.parametrize("name", ["up.NPZ", "up.Json", "UP.CSV"])
+def test_out_writes_exactly_the_named_file(tmp_path, capsys, name):
+    target = tmp_path / name
+    assert cli.main(["simulate", "models/bouncing_ball.toml", "--t-end", "1",
+                     "--out", str(target)]) == 0
+    assert f"wrote {target}" in capsys.readouterr().out
+    assert sorted(p.name for p in tmp_path.iterdir()) == [name]
+    if name.lower().endswith(".npz"):
+        with np.load(target) as data:
+            assert str(data["status"]) == "COMPLETED"
+
+
+def test_a_replaced_file_keeps_its_permissions(tmp_path):
+    target = tmp_path / "shared.txt"
+    target.write_text("old")
+    target.chmod(0o640)
+    with replaced(target) as fh:
+        fh.write("new")
+    assert target.read_text() == "new" and (target.stat().st_mode & 0o777) == 0o640
+
+
+def test_an_internal_error_is_one_line_and_a_report(monkeypatch, capsys):
+    def broken(_args):
+        raise RuntimeError("a bug")
+
+    monkeypatch.setattr(cli, "_cmd_check", broken)
+    code = cli.main(["check", "models/bouncing_ball.toml"])
+    err = capsys.readouterr().err
+    assert code == cli.EXIT_BUG == 70
+    assert err.count("\n") == 1 and err.startswith("hybridlab: internal error (RuntimeError)")
+    report = err.rstrip().rsplit(" ", 1)[1]
+    try:
+        text = Path(report).read_text(encoding="utf-8")
+        assert "Traceback" in text and "RuntimeError: a bug" in text and "'check'" in text
+    finally:
+        os.unlink(report)
+
+
+def test_ctrl_c_in_a_command_exits_130_in_one_line(monkeypatch, capsys):
+    def interrupted(_args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "_cmd_check", interrupted)
+    assert cli.main(["check", "models/bouncing_ball.toml"]) == cli.EXIT_INTERRUPTED == 130
+    assert capsys.readouterr().err == "hybridlab: interrupted\n"
+
+
+def test_budget_options_on_the_command_line(capsys, tmp_path):
+    model = tmp_path / "osc.toml"
+    model.write_text('name = "osc"\nstates = { x = 1.0, v = 0.0 }\n[modes.a]\n'
+                     'flow = { x = "v", v = "-x" }\n[initial]\nmode = "a"\n')
+    assert cli.main(["simulate", str(model), "--t-end", "1e300", "--max-steps", "500"]) == 3
+    assert capsys.readouterr().out.startswith("status: STEP_LIMIT: 500 integrator steps")
+    assert cli.main(["simulate", str(model), "--t-end", "1e300", "--time-limit", "0.2"]) == 3
+    assert capsys.readouterr().out.startswith("status: TIME_LIMIT")
