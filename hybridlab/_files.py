@@ -12,6 +12,7 @@ less the umask) when there was none.
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import stat
 import tempfile
@@ -19,7 +20,34 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import IO, Any
 
-__all__ = ["replace_file", "replace_text", "replaced"]
+__all__ = ["MAX_INPUT_BYTES", "read_bounded", "replace_file", "replace_text", "replaced"]
+
+#: The largest input file read (model, SpaceEx, cfg, CSV, targets): 64 MiB. Every reader
+#: stops there, so ``/dev/zero`` or a huge file is an error, not an endless read.
+MAX_INPUT_BYTES = 64 * 1024 * 1024
+
+
+def read_bounded(path: str | Path, limit: int = MAX_INPUT_BYTES) -> bytes:
+    """The bytes of ``path``, at most ``limit`` of them.
+
+    Raises
+    ------
+    OSError
+        As ``open`` does, and with ``errno.EFBIG`` when the file holds more than
+        ``limit`` bytes (a device such as ``/dev/zero`` included).
+
+    Examples
+    --------
+    >>> read_bounded("/dev/zero", limit=1000)
+    Traceback (most recent call last):
+    ...
+    OSError: [Errno 27] larger than 1000 bytes: '/dev/zero'
+    """
+    with open(path, "rb") as fh:
+        data = fh.read(limit + 1)
+    if len(data) > limit:
+        raise OSError(errno.EFBIG, f"larger than {limit} bytes", str(path))
+    return data
 
 
 def _mode_for(path: Path) -> int:

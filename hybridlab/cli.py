@@ -19,6 +19,7 @@ from pathlib import Path
 
 from hybridlab._cliargs import finite_number, require_finite, split_assignment
 from hybridlab._files import replace_text
+from hybridlab._text import printable
 from hybridlab.ensemble.cli import add_sweep_parser
 from hybridlab.errors import HybridlabError, ModelError, SimulationError
 from hybridlab.graph import check_mode_graph, to_dot
@@ -70,7 +71,7 @@ def _summary(model: Model) -> str:
         extra = ""
         if mode.switches:
             extra = "; discontinuities: " + ", ".join(s.text for s in mode.switches)
-        lines.append(f"    {name}: {len(mode.outgoing)} outgoing, "
+        lines.append(f"    {printable(name)}: {len(mode.outgoing)} outgoing, "
                      f"{len(mode.invariant_texts)} invariant(s){extra}")
     lines.append(f"  transitions ({len(model.transitions)}):")
     for tr in model.transitions:
@@ -79,9 +80,10 @@ def _summary(model: Model) -> str:
             when += f" every {tr.schedule.period}"
         prio = "" if tr.priority is None else f" priority {tr.priority}"
         source = tr.source if isinstance(tr.source, str) else ", ".join(tr.source)
-        lines.append(f"    {tr.name}: {source} -> {tr.target} when {when}{prio}")
+        lines.append(f"    {printable(tr.name)}: {printable(source)} -> {printable(tr.target)} "
+                     f"when {when}{prio}")
     if model.scenarios:
-        lines.append("  scenarios: " + ", ".join(f"{k} (t_end {v.t_end:g})"
+        lines.append("  scenarios: " + ", ".join(f"{printable(k)} (t_end {v.t_end:g})"
                                                 for k, v in model.scenarios.items()))
     return "\n".join(lines)
 
@@ -117,11 +119,11 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     if out is not None:
         result.save(out)
     jumps = len(result.jumps)
-    print(f"status: {result.status.name}: {result.message}")
+    print(f"status: {result.status.name}: {printable(result.message)}")
     print(f"events: {len(result.events)} ({jumps} jumps)")
     final = result.final
     state = ", ".join(f"{k}={v:.10g}" for k, v in final.state.items())
-    print(f"final: t={final.t:.10g} j={final.j} mode={final.mode} {state}")
+    print(f"final: t={final.t:.10g} j={final.j} mode={printable(final.mode)} {state}")
     if result.zeno_time is not None:
         print(f"zeno_time: {result.zeno_time:.12g}")
     if args.out:

@@ -273,7 +273,9 @@ def valid_model_dicts(draw: st.DrawFn) -> dict[str, Any]:
             data["definitions"][d] = draw(linear_expressions([*variables, *defs[:i]], params))
     usable = [*variables, *defs]
 
-    mode_names = draw(st.lists(st.text(_CHARS, max_size=6), min_size=1, max_size=3, unique=True))
+    # "*" is the wildcard of transitions and "" no name: neither may name a mode
+    mode_names = draw(st.lists(st.text(_CHARS, max_size=6).filter(lambda m: m not in ("", "*")),
+                               min_size=1, max_size=3, unique=True))
     data["modes"] = {}
     for m in mode_names:
         mode: dict[str, Any] = {"flow": {s: draw(linear_expressions(usable, params))

@@ -285,7 +285,7 @@ def test_external_entity_is_refused():
      "ball.cfg: initially: the initial set is empty"),
     (ball_xml(), BALL_CFG + '\nforbidden = "x >= "',
      "ball.cfg: forbidden: missing operand of a comparison"),
-    (ball_xml(), BALL_CFG + "\ntime-horizon = -1",
+    (ball_xml(), BALL_CFG.replace("time-horizon = 5", "time-horizon = -1"),
      "ball.cfg: time-horizon: must be a positive finite number (token '-1')"),
     (ball_xml(), 'initially "x == 1"', "ball.cfg: initially: line 1: expected '=' after the "
                                        "key (token '\"x == 1\"')"),
@@ -320,3 +320,34 @@ def test_random_expression_text_gives_a_model_or_a_one_line_error(guard, assignm
         assert "\n" not in text and text.startswith("ball.xml: component[@id='ball']/")
     else:
         assert isinstance(p.model, hybridlab.Model)
+
+
+# ------------------------------------------------------------------ names that try to escape
+@pytest.mark.parametrize("name", [
+    "a\n[[transitions]]\nname = \"evil\"\nsource = \"a\"\ntarget = \"a\"\nguard = \"x >= 0\"",
+    "a\r\n# x", 'a"b', "a\\nb", "a\u2028b", "x = 1", "*)",
+])
+def test_an_imported_name_means_exactly_what_the_xml_means(tmp_path, name):
+    # the location name goes into the written file's header comment and into its keys
+    escaped = (name.replace("&", "&amp;").replace("<", "&lt;").replace('"', "&quot;")
+               .replace("\n", "&#10;").replace("\r", "&#13;"))
+    xml = ball_xml().replace('name="always"', f'name="{escaped}"').replace("iso-8859-1", "utf-8")
+    problem = load_text(xml)
+    (tmp_path / "ball.xml").write_text(xml, encoding="utf-8")
+    (tmp_path / "ball.cfg").write_text(BALL_CFG)
+    target = tmp_path / "imported.toml"
+    assert main(["import", "spaceex", str(tmp_path / "ball.xml"), "--cfg",
+                 str(tmp_path / "ball.cfg"), "-o", str(target)]) == 0
+    written = hybridlab.load_model(target)
+    assert written == problem.model  # the file holds the model, and nothing else
+    a = hybridlab.simulate(problem.model, 3.0, backend="reference")
+    b = hybridlab.simulate(written, 3.0, backend="reference")
+    assert [e.t for e in a.events] == [e.t for e in b.events] and len(a.events) == 1
+    lines = target.read_text(encoding="utf-8").splitlines()
+    comments = [k for k, ln in enumerate(lines) if ln.startswith("#")]
+    assert comments == list(range(len(comments)))  # the header only: nothing escaped it
+
+
+def test_a_cfg_key_given_twice_is_an_error():
+    cfg = BALL_CFG + "\ntime-horizon = 50"
+    assert "line 3: the key is given twice" in error_of(ball_xml(), cfg)

@@ -24,6 +24,7 @@ from hybridlab._cliargs import finite_number, split_assignment
 from hybridlab.ensemble.api import sweep
 from hybridlab.ensemble.errors import SweepError
 from hybridlab.ensemble.observables import Count, Observable
+from hybridlab.ensemble.spec import check_run_count
 from hybridlab.model.loader import load_model
 from hybridlab.simulation.options import METHODS
 
@@ -68,6 +69,7 @@ def parse_grid(items: list[str] | None) -> dict[str, list[float]]:
             if n < 1:
                 raise SweepError(f"--grid {name}: N must be a positive integer "
                                  f"(got {parts[2]!r})")
+            check_run_count(n, f"--grid {name}")
             grid[name] = [float(v) for v in np.linspace(lo, hi, n)]
         else:
             grid[name] = [_float(p, f"--grid {name}") for p in spec.split(",")]

@@ -61,8 +61,22 @@ def resolve_names(model: Model, values: Mapping[str, Any], argument: str
     return params, initial
 
 
+#: The most runs one sweep may request: a grid or sample set past it is refused before
+#: anything is allocated (a grid of 10**9 points would need gigabytes first).
+MAX_RUNS = 1_000_000
+
+
+def check_run_count(count: int, what: str) -> None:
+    """Refuse a request of more than :data:`MAX_RUNS` runs, naming what asked for them."""
+    if count > MAX_RUNS:
+        raise SweepError(f"{what}: {count} runs requested; a sweep may have at most "
+                         f"{MAX_RUNS} (split it, or sample instead of a full grid)")
+
+
 def _grid_points(grid: Mapping[str, Any]) -> list[dict[str, float]]:
     names = list(grid)
+    sizes = [np.size(grid[name]) for name in names]
+    check_run_count(int(np.prod(sizes, dtype=float)) if sizes else 0, "grid")
     axes = []
     for name in names:
         values = np.atleast_1d(np.asarray(grid[name], dtype=object))
@@ -121,6 +135,7 @@ def expand(model: Model, *, grid: Mapping[str, Any] | None, samples: Any,
     points = _grid_points(grid) if grid else [{}]
     if samples is not None:
         sample_points = _sample_points(samples)
+        check_run_count(len(sample_points) * len(points), "samples times grid")
         points = [{**s, **g} for s in sample_points for g in points]
         clash = set(grid or ()) & {n for s in sample_points for n in s}
         if clash:

@@ -22,7 +22,7 @@ from typing import IO
 
 import numpy as np
 
-from hybridlab._files import replace_file
+from hybridlab._files import read_bounded, replace_file
 from hybridlab.identify.errors import DataError
 
 __all__ = [
@@ -206,12 +206,20 @@ def _read_rows(path: str | Path, required: Sequence[str],
                optional: Sequence[str] = ()) -> tuple[dict[str, list[str]], str]:
     source = str(path)
     try:
-        with open(path, newline="", encoding="utf-8") as fh:
-            lines = [ln for ln in fh if ln.strip() and not ln.lstrip().startswith("#")]
+        text = read_bounded(path).decode("utf-8")
     except OSError as exc:
         raise DataError(f"cannot read the file ({exc.strerror})", source=source) from None
+    except UnicodeDecodeError:
+        raise DataError("is not UTF-8 text", source=source) from None
+    if "\x00" in text:
+        raise DataError("is not text (it holds NUL bytes)", source=source)
+    lines = [ln for ln in text.removeprefix("\ufeff").splitlines(keepends=True)
+             if ln.strip() and not ln.lstrip().startswith("#")]
     reader = csv.DictReader(lines)
     header = [h.strip() for h in (reader.fieldnames or [])]
+    twice = sorted({h for h in header if header.count(h) > 1})
+    if twice:
+        raise DataError(f"has the column {twice[0]!r} twice", column=twice[0], source=source)
     missing = [c for c in required if c not in header]
     if missing:
         raise DataError(f"missing column(s) {', '.join(missing)}; the file has "

@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from hybridlab._files import read_bounded
 from hybridlab.identify.errors import TargetError
 from hybridlab.identify.summary import (
     Crossings,
@@ -226,9 +227,11 @@ def read_targets(path: str | Path) -> tuple[Target, ...]:
     path = Path(path)
     source = str(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = read_bounded(path).decode("utf-8")
     except OSError as exc:
         raise TargetError(f"cannot read: {exc.strerror or exc}", source=source) from None
+    except UnicodeDecodeError:
+        raise TargetError("not UTF-8 text", source=source) from None
     try:
         data = json.loads(text) if path.suffix.lower() == ".json" else tomllib.loads(text)
     except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:

@@ -18,7 +18,7 @@ MAX_CFG_BYTES = 1_000_000
 
 
 def parse_cfg(text: str, source: str) -> dict[str, str]:
-    """Parse ``.cfg`` text into a dict (later keys override earlier ones, as in SpaceEx).
+    """Parse ``.cfg`` text into a dict; a key given twice is an error.
 
     Examples
     --------
@@ -68,6 +68,9 @@ def parse_cfg(text: str, source: str) -> dict[str, str]:
             end = len(text) if end < 0 else end
             value = text[pos:end].split("#", 1)[0].strip()
             pos = end
+        if key.group() in out:  # last-one-wins would silently drop the first meaning
+            raise SpaceExError(f"line {line}: the key is given twice", key=key.group(),
+                               token=key.group(), source=source)
         out[key.group()] = value
     return out
 

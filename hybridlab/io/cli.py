@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 
 from hybridlab._files import replace_text
+from hybridlab._text import printable
 from hybridlab.io.spaceex import ConstraintSet, SpaceExProblem, load_spaceex
 from hybridlab.model.loader import dumps_model
 
@@ -59,7 +60,8 @@ def problem_header(problem: SpaceExProblem) -> str:
         lines.append("# " + ", ".join(parts))
     for old, new in problem.renamed.items():
         lines.append(f"# renamed: {old} -> {new}")
-    return "\n".join(lines)
+    # names and relations come from the XML: none may end a comment line early
+    return "\n".join("# " + printable(line[2:]) for line in lines)
 
 
 def _run_spaceex(args: argparse.Namespace) -> int:

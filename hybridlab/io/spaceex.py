@@ -26,6 +26,7 @@ from typing import Any, NoReturn
 import numpy as np
 import sympy as sp
 
+from hybridlab._files import read_bounded
 from hybridlab.errors import ExpressionError
 from hybridlab.io._sxcfg import cfg_number, parse_cfg
 from hybridlab.io._sxexpr import Atom, parse_conjunction, split_disjunction
@@ -826,13 +827,13 @@ def load_spaceex(path: str | Path, cfg: str | Path | None = None, *,
     """
     path = Path(path)
     try:
-        data = path.read_bytes()
+        data = read_bounded(path)
     except OSError as exc:
         raise SpaceExError(f"cannot read file: {exc.strerror}", source=str(path)) from None
     cfg_text = None
     if cfg is not None:
         try:
-            cfg_text = Path(cfg).read_text(encoding="utf-8")
+            cfg_text = read_bounded(cfg).decode("utf-8")
         except OSError as exc:
             raise SpaceExError(f"cannot read file: {exc.strerror}", source=str(cfg)) from None
         except UnicodeDecodeError:

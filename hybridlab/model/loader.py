@@ -11,6 +11,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
+from hybridlab._files import read_bounded
 from hybridlab.errors import ModelError
 from hybridlab.model.schema import Model
 
@@ -163,7 +164,7 @@ def load_model(path: str | Path) -> Model:
     """
     path = Path(path)
     try:
-        raw = path.read_bytes()
+        raw = read_bounded(path)
     except OSError as exc:
         raise ModelError(f"cannot read file: {exc.strerror}", source=str(path)) from None
     try:
