@@ -16,10 +16,12 @@ import sympy as sp
 
 from hybridlab.errors import ExpressionError, ModelError
 from hybridlab.model.expressions import (
+    MAX_TREE_NODES,
     Inequality,
     check_name,
     parse_expression,
     parse_relation,
+    tree_size,
 )
 
 if TYPE_CHECKING:
@@ -195,8 +197,14 @@ def _definitions(texts: Mapping[str, str], base: dict[str, sp.Expr],
         raise _fail("definitions refer to each other in a cycle", f"{prefix}.{cycle[0][1]}",
                     names_in_cycle)
     resolved: dict[str, sp.Expr] = {}
+    sizes: dict[sp.Basic, float] = {}
     for name in nx.topological_sort(graph):
         resolved[name] = raw[name].xreplace({placeholders[k]: v for k, v in resolved.items()})
+        size = tree_size(resolved[name], sizes)
+        if size > MAX_TREE_NODES:
+            raise _fail(f"definition too large: {size:.3g} operations with the definitions it "
+                        f"uses substituted (at most {MAX_TREE_NODES}); use fewer nested "
+                        "definitions", f"{prefix}.{name}", name)
     return {name: resolved[name] for name in texts}
 
 

@@ -27,11 +27,14 @@ __all__ = [
     "CONSTANTS",
     "RESERVED_NAMES",
     "MAX_EXPRESSION_LENGTH",
+    "MAX_TREE_NODES",
     "Inequality",
     "parse_expression",
     "parse_relation",
     "check_name",
     "as_expression",
+    "expanded_size",
+    "tree_size",
 ]
 
 MAX_EXPRESSION_LENGTH = 10_000
@@ -174,6 +177,77 @@ def _parse_tree(text: str) -> ast.expr:
     return tree.body
 
 
+#: Relations are expanded (``2*(x - 1)`` to ``2*x - 2``, which exposes linear guards) only
+#: when the result has at most this many terms: ``(a + b + ... + h)**100`` would have
+#: billions.
+_MAX_EXPANDED_TERMS = 2_000
+
+
+#: The most nodes a parsed expression may have as a tree, definitions substituted. A chain of
+#: definitions that each use the previous one twice doubles the tree at every link while
+#: the shared graph stays small; every later stage (derivatives, printing) works on trees.
+MAX_TREE_NODES = 200_000
+
+
+def tree_size(expr: sp.Basic, memo: dict[sp.Basic, float] | None = None) -> float:
+    """The number of nodes of ``expr`` as a tree, counted in time linear in its shared graph.
+
+    Examples
+    --------
+    >>> x = sp.Symbol("x")
+    >>> d = x + 1
+    >>> for _ in range(40):
+    ...     d = sp.Function("f")(d, d)
+    >>> tree_size(d) > 1e12
+    True
+    """
+    memo = {} if memo is None else memo
+    stack = [expr]
+    while stack:
+        node = stack[-1]
+        if node in memo:
+            stack.pop()
+            continue
+        pending = [a for a in node.args if a not in memo]
+        if pending:
+            stack.extend(pending)
+            continue
+        stack.pop()
+        memo[node] = 1.0 + sum(memo[a] for a in node.args)
+    return memo[expr]
+
+
+def expanded_size(expr: sp.Basic, memo: dict[sp.Basic, float] | None = None) -> float:
+    """An upper bound of the number of terms of ``sympy.expand(expr)``, without expanding.
+
+    Shared subexpressions are counted once (the walk is linear in the expression's DAG).
+
+    Examples
+    --------
+    >>> x, y = sp.symbols("x y")
+    >>> expanded_size((x + y)**2), expanded_size((x + y) * (x - y + 1))
+    (3.0, 6.0)
+    >>> expanded_size((x + y + 1)**100) > 1e3
+    True
+    """
+    memo = {} if memo is None else memo
+    if expr in memo:
+        return memo[expr]
+    if isinstance(expr, sp.Add):
+        size = float(sum(expanded_size(a, memo) for a in expr.args))
+    elif isinstance(expr, sp.Mul):
+        size = 1.0
+        for a in expr.args:
+            size *= expanded_size(a, memo)
+    elif isinstance(expr, sp.Pow) and expr.exp.is_Integer and expr.exp > 1:
+        k, n = expanded_size(expr.base, memo), int(expr.exp)
+        size = float(math.comb(int(min(k, 1e6)) + n - 1, n)) if k < 1e6 else math.inf
+    else:
+        size = 1.0
+    memo[expr] = min(size, math.inf)
+    return memo[expr]
+
+
 def _is_finite_number(atom: sp.Basic) -> bool:
     """False for zoo, oo, -oo, nan and numbers beyond the float range."""
     if atom in _NON_FINITE:
@@ -193,6 +267,7 @@ class _Builder:
         self.text = text
         self.symbols = symbols
         self.finite: set[sp.Basic] = set()  # subexpressions already known to be finite
+        self.sizes: dict[sp.Basic, float] = {}  # tree sizes of subexpressions seen
 
     def check_finite(self, value: sp.Expr, node: ast.AST) -> None:
         """Refuse a (sub)expression that contains a value that is no finite double.
@@ -209,7 +284,8 @@ class _Builder:
             if part in self.finite:
                 continue
             seen.append(part)
-            if part is sp.I or (part.args and not part.free_symbols
+            if part is sp.I or (part.args and all(a.is_Number or a.is_NumberSymbol
+                                                  for a in part.args)
                                 and part.is_extended_real is False):
                 # sqrt(-1), log(-2), asin(2), (-8)**(1/3): complex constants
                 raise ExpressionError("not a real number", self.token(node))
@@ -227,9 +303,19 @@ class _Builder:
 
     def expr(self, node: ast.AST, depth: int = 0) -> sp.Expr:
         result = self._build(node, depth)
+        if isinstance(node, ast.BinOp | ast.UnaryOp | ast.Call | ast.Name):
+            self.check_size(result, node)
         if isinstance(node, ast.BinOp | ast.UnaryOp | ast.Call):
             self.check_finite(result, node)
         return result
+
+    def check_size(self, value: sp.Expr, node: ast.AST) -> None:
+        """Refuse an expression whose tree (definitions substituted) is past the limit."""
+        size = tree_size(value, self.sizes)
+        if size > MAX_TREE_NODES:
+            raise ExpressionError(f"expression too large: {size:.3g} operations with the "
+                                  f"definitions substituted (at most {MAX_TREE_NODES}); "
+                                  "use fewer nested definitions", self.token(node))
 
     def power(self, base: sp.Expr, exponent: sp.Expr, node: ast.AST) -> sp.Expr:
         """``base**exponent`` without letting sympy compute giant exact numbers."""
@@ -363,7 +449,8 @@ class _Builder:
             diff = rhs - lhs if symbol in ("<", "<=") else lhs - rhs
             self.check_finite(diff, node)
             text = f"{self.token(left)} {symbol} {self.token(right)}"
-            out.append(Inequality(sp.expand(diff) if diff.is_polynomial() else diff,
+            small = expanded_size(diff) <= _MAX_EXPANDED_TERMS
+            out.append(Inequality(sp.expand(diff) if small and diff.is_polynomial() else diff,
                                   symbol in ("<", ">"), text))
         return out
 
