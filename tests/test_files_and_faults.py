@@ -103,3 +103,64 @@ def test_budget_options_on_the_command_line(capsys, tmp_path):
     assert capsys.readouterr().out.startswith("status: STEP_LIMIT: 500 integrator steps")
     assert cli.main(["simulate", str(model), "--t-end", "1e300", "--time-limit", "0.2"]) == 3
     assert capsys.readouterr().out.startswith("status: TIME_LIMIT")
+
+
+# ----- the compiled-model cache -----------------------------------------------------------
+CACHE_MODEL = """
+name = "cached"
+parameters = { k = 1.5 }
+states = { x = 1.0 }
+[modes.a]
+flow = { x = "-k*x + 0.125" }
+[initial]
+mode = "a"
+"""
+
+
+def _fresh_import(text: str = CACHE_MODEL):
+    """Generate and import a model's compiled module as a new process would."""
+    import sys
+
+    from hybridlab.simulation.compiled import backend
+    from hybridlab.simulation.compiled.codegen import generate
+
+    source = generate(hybridlab.compile_model(hybridlab.loads_model(text)))
+    for name in [n for n in sys.modules if n.startswith("hybridlab_model_")]:
+        del sys.modules[name]
+    return backend._import(source)
+
+
+@pytest.mark.parametrize("problem", ["world-writable", "a file", "unwritable parent"])
+def test_an_unusable_cache_folder_falls_back_and_says_why(tmp_path, monkeypatch, problem):
+    folder = tmp_path / "cache"
+    if problem == "world-writable":
+        folder.mkdir()
+        folder.chmod(0o777)
+        expected = "other users can write to it"
+    elif problem == "a file":
+        folder.write_text("not a folder")
+        expected = "it cannot be written"
+    else:
+        (tmp_path / "ro").write_text("")
+        folder = tmp_path / "ro" / "cache"
+        expected = "it cannot be written"
+    monkeypatch.setenv("HYBRIDLAB_CACHE_DIR", str(folder))
+    with pytest.warns(RuntimeWarning, match=rf"HYBRIDLAB_CACHE_DIR.*{expected}.*for this process"):
+        module, _ = _fresh_import()
+    assert "hybridlab-cache-" in module.__file__
+    if problem == "world-writable":
+        assert list(folder.iterdir()) == []  # nothing was written or loaded there
+
+
+def test_a_damaged_cache_entry_is_compiled_afresh(tmp_path, monkeypatch):
+    monkeypatch.setenv("HYBRIDLAB_CACHE_DIR", str(tmp_path))
+    module, _ = _fresh_import()
+    entries = list((tmp_path / "__pycache__").iterdir())
+    assert entries
+    for entry in entries:  # numba's index and code, damaged
+        entry.write_bytes(b"\x80\x04garbage")
+    module, _ = _fresh_import()
+    result = hybridlab.simulate(hybridlab.loads_model(CACHE_MODEL), t_end=1.0)
+    assert result.stats["backend"] == "compiled"
+    exact = 0.125 / 1.5 + (1 - 0.125 / 1.5) * np.exp(-1.5)
+    assert result.final.state["x"] == pytest.approx(exact, rel=1e-8)

@@ -21,8 +21,11 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import os
+import stat
 import sys
+import tempfile
 import time
+import warnings
 import weakref
 from collections import deque
 from collections.abc import Callable, Sequence
@@ -35,6 +38,7 @@ from types import ModuleType
 import numba
 import numpy as np
 
+from hybridlab._files import replace_text
 from hybridlab.errors import ZenoError
 from hybridlab.simulation import engine
 from hybridlab.simulation.compiled.codegen import (
@@ -255,22 +259,81 @@ _SCHED_ON = 15  # index of the per-run "schedule enabled" table in Prepared.ints
 _PREPARED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # per-model memo
 
 
+def _unsafe_reason(directory: Path) -> str | None:
+    """Why ``directory`` cannot hold the cache (``None``: it can).
+
+    numba unpickles the index files it finds there, so a folder that other users
+    can write to would let them run code in this process.
+    """
+    try:
+        directory.mkdir(parents=True, exist_ok=True, mode=0o700)
+        info = directory.stat()
+        probe = directory / f".probe-{os.getpid()}"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        return f"it cannot be written ({exc.strerror or exc})"
+    if info.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+        return "other users can write to it (numba loads code from its cache)"
+    if hasattr(os, "getuid") and info.st_uid != os.getuid():
+        return "it belongs to another user (numba loads code from its cache)"
+    return None
+
+
+@cache
+def _fallback_cache() -> Path:
+    """A private folder for this process, when the configured cache cannot be used."""
+    return Path(tempfile.mkdtemp(prefix="hybridlab-cache-"))
+
+
+def _usable_cache_dir() -> Path:
+    """:func:`cache_dir`, or a private temporary folder (with a warning saying why)."""
+    directory = cache_dir()
+    reason = _unsafe_reason(directory)
+    if reason is None:
+        return directory
+    where = ("$HYBRIDLAB_CACHE_DIR" if os.environ.get("HYBRIDLAB_CACHE_DIR")
+             else "the default cache")
+    fallback = _fallback_cache()
+    warnings.warn(f"hybridlab: not using {where} {str(directory)!r}: {reason}; compiling into "
+                  f"{str(fallback)!r} for this process (set HYBRIDLAB_CACHE_DIR to a private "
+                  "folder to keep compiled models)", RuntimeWarning, stacklevel=4)
+    return fallback
+
+
+def _load(name: str, path: Path) -> ModuleType:
+    spec = importlib.util.spec_from_file_location(name, path)
+    if spec is None or spec.loader is None:
+        raise ImportError(f"cannot load {path}")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _drop_entries(directory: Path, name: str) -> None:
+    """Delete the cached source and numba's files of one generated module."""
+    for stale in [directory / f"{name}.py", *(directory / "__pycache__").glob(f"{name}*")]:
+        stale.unlink(missing_ok=True)
+
+
 def _import(source: ModelSource) -> tuple[ModuleType, bool]:
     digest = hashlib.sha256((source.text + numba.__version__).encode()).hexdigest()[:20]
     name = f"hybridlab_model_{digest}"
     if name in sys.modules:
         return sys.modules[name], True
-    directory = cache_dir()
-    directory.mkdir(parents=True, exist_ok=True)
+    directory = _usable_cache_dir()
     path = directory / f"{name}.py"
-    if not path.exists() or path.read_text() != source.text:
-        tmp = path.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_text(source.text)
-        os.replace(tmp, path)
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
+    for attempt in range(2):
+        if not path.exists() or path.read_text(errors="replace") != source.text:
+            replace_text(path, source.text)
+        try:
+            module = _load(name, path)
+            break
+        except Exception:  # a damaged cache entry: compile afresh once, then give up
+            if attempt:
+                raise
+            _drop_entries(directory, name)
     sys.modules[name] = module
-    spec.loader.exec_module(module)
     hit = bool(getattr(module.model, "cache_hits", 0))
     return module, hit
 
