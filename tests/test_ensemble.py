@@ -282,3 +282,31 @@ def test_cli_sweep_user_errors_exit_2_with_one_line(tmp_path, capsys, args):
 def test_cli_sweep_rejects_a_non_csv_output(tmp_path, capsys):
     assert main(["sweep", str(BALL), "--grid", "e=0.5", "--out", str(tmp_path / "t.json")]) == 2
     assert "--out must end in .csv" in capsys.readouterr().err
+
+
+def test_ctrl_c_during_a_sweep_keeps_every_finished_run():
+    calls = []
+
+    def stop_on_the_third_run(result):
+        calls.append(result.final.t)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return result.final.t
+
+    table = hybridlab.sweep("models/bouncing_ball.toml", grid={"e": [0.1, 0.2, 0.3, 0.4, 0.5]},
+                            t_end=1.0, observe={"t": stop_on_the_third_run}, executor="serial",
+                            chunksize=1)
+    assert table.interrupted
+    assert list(table["status"]) == ["COMPLETED"] * 2 + ["INTERRUPTED"] * 3
+    assert table["t"].tolist()[:2] == [1.0, 1.0]
+    assert "interrupted (Ctrl-C)" in table.column("error")[4]
+
+
+def test_a_per_run_time_limit_bounds_each_run_of_a_sweep(tmp_path):
+    model = tmp_path / "osc.toml"
+    model.write_text('name = "osc"\nparameters = { w = 1.0 }\nstates = { x = 1.0, v = 0.0 }\n'
+                     '[modes.a]\nflow = { x = "v", v = "-w*x" }\n[initial]\nmode = "a"\n')
+    table = hybridlab.sweep(model, grid={"w": [1.0, 4.0]}, t_end=1e300, time_limit=0.2,
+                            executor="serial")
+    assert list(table["status"]) == ["TIME_LIMIT", "TIME_LIMIT"]
+    assert not table.interrupted

@@ -18,7 +18,15 @@ from hybridlab.ensemble.observables import parse_counts, parse_observables
 from hybridlab.ensemble.progress import ProgressBar, progress_wanted
 from hybridlab.ensemble.result import SweepResult
 from hybridlab.ensemble.spec import RUN_KEYS, expand, normalise_run
-from hybridlab.ensemble.worker import ERROR, Chunk, compiled_for, model_key, model_text, run_chunk
+from hybridlab.ensemble.worker import (
+    ERROR,
+    INTERRUPTED,
+    Chunk,
+    compiled_for,
+    model_key,
+    model_text,
+    run_chunk,
+)
 from hybridlab.model.loader import load_model
 from hybridlab.model.schema import Model
 from hybridlab.simulation.api import simulate
@@ -135,6 +143,7 @@ def _execute(model_arg: Model | CompiledModel | str | Path, runs: list[dict[str,
                 results[index] = dataclasses.replace(result, compiled=compiled)
         bar.update(len(chunk.runs))
 
+    interrupted = False
     try:
         if placement.executor is None:
             for chunk in chunks:
@@ -149,13 +158,20 @@ def _execute(model_arg: Model | CompiledModel | str | Path, runs: list[dict[str,
                     collect(futures[future], None, f"{type(exc).__name__}: {text}")
                 else:
                     collect(futures[future], outcome)
+    except KeyboardInterrupt:  # keep every finished run; the others say they did not run
+        interrupted = True
     finally:
         bar.close()
         _shutdown(placement)
+    blank = (None,) * (len(counts) + len(observables))
+    worker_rows = [row if row is not None else (INTERRUPTED, math.nan, None, *blank,
+                                                "interrupted (Ctrl-C) before this run finished")
+                   for row in worker_rows]
     rows = tuple((i, *input_rows[i], *row) for i, row in enumerate(worker_rows))
     return SweepResult(columns=columns, rows=rows, inputs=tuple(inputs),
                        results=tuple(results) if keep == "results" else None,
-                       elapsed=time.perf_counter() - started, executor=placement.label)
+                       elapsed=time.perf_counter() - started, executor=placement.label,
+                       interrupted=interrupted)
 
 
 def _shutdown(placement: Any) -> None:

@@ -132,7 +132,10 @@ def _run(args: argparse.Namespace) -> int:
     for item in args.value or ():
         name, value = _split(item, "--value")
         fixed[name] = _float(value, f"--value {name}")
-    options: dict[str, Any] = {k: getattr(args, k) for k in ("method", "rtol", "atol", "max_step")
+    if args.time_limit is not None:
+        _float(str(args.time_limit), "--time-limit")
+    options: dict[str, Any] = {k: getattr(args, k) for k in ("method", "rtol", "atol", "max_step",
+                                                             "max_steps", "time_limit")
                                if getattr(args, k) is not None}
     if args.backend:
         options["backend"] = args.backend
@@ -155,6 +158,9 @@ def _run(args: argparse.Namespace) -> int:
     if len(failed) > 5:
         print(f"  ... and {len(failed) - 5} more (see the status column)")
     print(f"wrote {args.out}")
+    if table.interrupted:
+        print("interrupted (Ctrl-C): the runs that had not finished have status INTERRUPTED")
+        return 130
     return 0 if not failed else 3
 
 
@@ -191,6 +197,10 @@ def add_sweep_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--rtol", type=float)
     p.add_argument("--atol", type=float)
     p.add_argument("--max-step", type=float, dest="max_step")
+    p.add_argument("--max-steps", type=int, dest="max_steps",
+                   help="integrator steps per run before it stops with STEP_LIMIT")
+    p.add_argument("--time-limit", type=float, dest="time_limit", metavar="SECONDS",
+                   help="wall-clock seconds per run before it stops with TIME_LIMIT")
     p.add_argument("--backend", help="simulation backend, passed to simulate")
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="progress bar on stderr (default: when stderr is a terminal, not in CI)")

@@ -58,6 +58,9 @@ class SweepResult:
         Wall-clock seconds of the whole sweep.
     executor : str
         Where the runs ran (``serial``, ``threads(2)``, ``processes(2)``, ...).
+    interrupted : bool
+        Ctrl-C arrived during the sweep: the finished runs are in the table, the
+        others have status ``INTERRUPTED``.
 
     Examples
     --------
@@ -77,6 +80,7 @@ class SweepResult:
     results: tuple[Any, ...] | None = field(default=None, repr=False)
     elapsed: float = 0.0
     executor: str = "serial"
+    interrupted: bool = False
 
     def __len__(self) -> int:
         return len(self.rows)

@@ -27,6 +27,8 @@ __all__ = ["ERROR", "Chunk", "compiled_for", "model_key", "model_text", "run_chu
 
 #: Status column value of a run that raised instead of returning a result.
 ERROR = "ERROR"
+#: the status of a run that Ctrl-C stopped before it finished
+INTERRUPTED = "INTERRUPTED"
 
 
 @dataclass(frozen=True)
