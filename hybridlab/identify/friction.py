@@ -169,9 +169,24 @@ def _lstsq(X: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nda
     return coef, np.sqrt(np.clip(np.diag(cov), 0, None)), res
 
 
+def _identifiable(speed: np.ndarray, name: str, stage: str) -> None:
+    """Refuse a line fit through runs at fewer than two distinct speeds.
+
+    ``c`` and ``d`` of ``c + d v`` are then not determined: least squares would report an
+    arbitrary minimum-norm pair with standard errors near zero.
+    """
+    distinct = np.unique(speed)
+    if distinct.size < 2 or np.ptp(speed) <= 1e-9 * max(float(np.max(np.abs(speed))), 1e-300):
+        at = f"{float(distinct[0]):.6g} m/s" if distinct.size else "no speed"
+        raise DataError(f"the {name} runs {stage} are all at one speed ({at}): Coulomb and "
+                        "viscous friction cannot be told apart; runs at two or more different "
+                        "speeds in each direction are needed", column="velocity")
+
+
 def _direction(speed: np.ndarray, force: np.ndarray, v_min: float | None, k_sigma: float,
                name: str) -> tuple[LineFit, np.ndarray]:
     """Fit ``force = c + d speed`` (magnitudes) with the exclusion rule; returns the mask."""
+    _identifiable(speed, name, "given")
     if len(speed) < _MIN_POINTS:
         raise DataError(f"needs at least {_MIN_POINTS} runs in the {name} direction "
                         f"(got {len(speed)})", column="velocity")
@@ -180,6 +195,7 @@ def _direction(speed: np.ndarray, force: np.ndarray, v_min: float | None, k_sigm
         if fast.sum() < _MIN_POINTS:
             fast = np.argsort(speed)[-_MIN_POINTS:]
             fast = np.isin(np.arange(len(speed)), fast)
+        _identifiable(speed[fast], name, "used for the exclusion rule (the faster half)")
         X = np.column_stack([np.ones(fast.sum()), speed[fast]])
         coef, _, res = _lstsq(X, force[fast])
         sigma = max(float(np.sqrt(res @ res / max(len(res) - 2, 1))),
@@ -194,6 +210,7 @@ def _direction(speed: np.ndarray, force: np.ndarray, v_min: float | None, k_sigm
         raise DataError(f"only {int(keep.sum())} runs of the {name} direction are faster than "
                         f"the exclusion threshold {threshold:.4g} m/s; at least {_MIN_POINTS} "
                         f"are needed", column="velocity")
+    _identifiable(speed[keep], name, f"faster than the exclusion threshold {threshold:.4g} m/s")
     X = np.column_stack([np.ones(keep.sum()), speed[keep]])
     coef, se, res = _lstsq(X, force[keep])
     fit = LineFit(c=float(coef[0]), d=float(coef[1]), c_se=float(se[0]), d_se=float(se[1]),
