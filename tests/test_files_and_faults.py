@@ -164,3 +164,15 @@ def test_a_damaged_cache_entry_is_compiled_afresh(tmp_path, monkeypatch):
     assert result.stats["backend"] == "compiled"
     exact = 0.125 / 1.5 + (1 - 0.125 / 1.5) * np.exp(-1.5)
     assert result.final.state["x"] == pytest.approx(exact, rel=1e-8)
+
+
+def test_a_compiled_model_is_loaded_from_the_cache_by_the_next_process(tmp_path):
+    import subprocess
+    import sys
+
+    script = ("import hybridlab; m = hybridlab.loads_model('''" + CACHE_MODEL + "''');"
+              "r = hybridlab.simulate(m, t_end=1.0); print(r.stats['compiled_cache_hit'])")
+    env = {**os.environ, "HYBRIDLAB_CACHE_DIR": str(tmp_path)}
+    runs = [subprocess.run([sys.executable, "-c", script], env=env, capture_output=True,
+                           text=True, timeout=300) for _ in range(2)]
+    assert [r.stdout.strip() for r in runs] == ["False", "True"], [r.stderr for r in runs]

@@ -302,11 +302,23 @@ def _usable_cache_dir() -> Path:
 
 
 def _load(name: str, path: Path) -> ModuleType:
+    """Import the generated module ``name`` from ``path``.
+
+    It is registered in ``sys.modules`` before it runs: numba records the module of
+    each function it caches and imports it by that name when it loads the cache in a
+    later process (an unregistered module is recorded as ``<dynamic>``, which no later
+    process can import).
+    """
     spec = importlib.util.spec_from_file_location(name, path)
     if spec is None or spec.loader is None:
         raise ImportError(f"cannot load {path}")
     module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    sys.modules[name] = module
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[name]
+        raise
     return module
 
 
@@ -333,7 +345,6 @@ def _import(source: ModelSource) -> tuple[ModuleType, bool]:
             if attempt:
                 raise
             _drop_entries(directory, name)
-    sys.modules[name] = module
     hit = bool(getattr(module.model, "cache_hits", 0))
     return module, hit
 
