@@ -53,9 +53,7 @@ mode = "a"
     ("x/(x - 1)", "x/(x - 1)"),
 ])
 def test_a_flow_undefined_at_the_start_fails_at_once_naming_it(flow, named, backend):
-    start = time.perf_counter()
-    result = hybridlab.simulate(one_state(flow), t_end=1.0, backend=backend)
-    assert time.perf_counter() - start < 60  # (a hang before; never a timing assertion)
+    result = hybridlab.simulate(one_state(flow), t_end=1.0, backend=backend)  # (it hung before)
     assert result.status is Status.SOLVER_FAILED
     assert f"the flow of x, {named}, is" in result.message and "t = 0.0" in result.message
     assert result.final.t == 0.0 and result.final.state == {"x": 1.0}
@@ -97,11 +95,8 @@ def test_the_step_budget_bounds_a_run_to_a_huge_horizon(backend):
 
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_the_wall_clock_limit_stops_a_run(backend):
-    start = time.perf_counter()
     result = hybridlab.simulate(OSCILLATOR, t_end=1e300, time_limit=0.3, backend=backend)
-    elapsed = time.perf_counter() - start
     assert result.status is Status.TIME_LIMIT and "time_limit = 0.3 s" in result.message
-    assert elapsed < 30  # generous: a loaded machine; the point is that it ends
     assert result.final.state["x"] == pytest.approx(math.cos(result.final.t), abs=1e-4)
 
 
@@ -141,10 +136,9 @@ def test_ctrl_c_stops_the_run_and_returns_the_partial_result(backend):
         assert proc.stdout.readline().strip() == "running"
         time.sleep(1.0)
         os.kill(proc.pid, signal.SIGINT)
-        sent = time.perf_counter()
-        out, _ = proc.communicate(timeout=120)
+        out, _ = proc.communicate(timeout=300)
     finally:
         proc.kill()
     status, moved, _ = out.split()
+    # not TIME_LIMIT: the run stopped at Ctrl-C, long before its 60 s limit
     assert (status, moved) == ("INTERRUPTED", "True")
-    assert time.perf_counter() - sent < 60  # it stopped long before the time limit

@@ -63,11 +63,15 @@ clock_at = _function_at(types.FunctionType(types.intc(types.intc, types.CPointer
 
 
 def watch_addresses() -> tuple[int, int]:
-    """The addresses of ``PyOS_InterruptOccurred`` and ``clock_gettime`` in this process."""
+    """The addresses of ``PyOS_InterruptOccurred`` and ``clock_gettime`` in this process
+    (``0`` for a C library without ``clock_gettime``: the kernel then cannot keep a
+    wall-clock limit, and the caller must not ask it to)."""
     interrupted = ctypes.pythonapi.PyOS_InterruptOccurred
-    clock = ctypes.CDLL(None).clock_gettime
-    return (ctypes.cast(interrupted, ctypes.c_void_p).value or 0,
-            ctypes.cast(clock, ctypes.c_void_p).value or 0)
+    try:
+        clock = ctypes.cast(ctypes.CDLL(None).clock_gettime, ctypes.c_void_p).value or 0
+    except (AttributeError, OSError, TypeError):
+        clock = 0
+    return ctypes.cast(interrupted, ctypes.c_void_p).value or 0, clock
 
 
 @intrinsic
