@@ -108,7 +108,9 @@ def test_a_step_too_small_for_the_horizon_is_refused_before_running():
 
 
 _INTERRUPTED = textwrap.dedent("""
-    import sys, time
+    import signal, sys, time
+    # a child of a background job inherits SIGINT ignored: take it back, as a terminal would
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     import hybridlab
     model = hybridlab.loads_model('''
     name = "osc"
