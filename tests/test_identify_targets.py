@@ -257,3 +257,23 @@ def test_cli_targets_end_to_end(tmp_path, capsys) -> None:
     payload = json.loads(out.read_text())
     assert 1 / 3 <= payload["parameters"]["c"] < 0.4
     assert payload["targets"][0]["simulated"] == 5
+
+
+@pytest.mark.parametrize(("target", "message"), [
+    (dict(observable="hh", t_end=5.0), r"targets\[0\]\.observable: unknown symbol \(token 'hh'\)"),
+    (dict(observable="h", t_end=5.0, dt=1e-9), r"targets\[0\]\.dt: .* needs 5e\+09 samples"),
+    (dict(observable="h + sqrt(", t_end=5.0), r"targets\[0\]\.observable: syntax error"),
+])
+def test_targets_that_cannot_be_measured_fail_before_any_simulation(target, message):
+    from hybridlab.identify import Target, fit_targets
+
+    with pytest.raises(ValueError, match=message):
+        fit_targets("models/bouncing_ball.toml", [Target("count", 3, 1.0, **target)], fit=["e"])
+
+
+def test_a_target_horizon_must_be_finite():
+    from hybridlab.identify import Target
+    from hybridlab.identify.errors import TargetError
+
+    with pytest.raises(TargetError, match="t_end: must be a positive finite number"):
+        Target("count", 3, 1.0, observable="h", t_end=float("inf"))

@@ -26,12 +26,13 @@ from typing import Any
 
 import numpy as np
 
-from hybridlab.errors import HybridlabError
+from hybridlab.errors import HybridlabError, ModelError
 from hybridlab.identify._optimise import BudgetSpent, ParameterSpace, minimise_residuals
 from hybridlab.identify._report import axes, format_table
-from hybridlab.identify.targets import Target, _Observers, target_statistic
+from hybridlab.identify.targets import MAX_SAMPLES, Target, _Observers, target_statistic
 from hybridlab.model.schema import Model
 from hybridlab.simulation.api import simulate
+from hybridlab.simulation.observe import Observer
 from hybridlab.simulation.resolve import as_compiled
 from hybridlab.symbolic.compile import CompiledModel
 
@@ -185,6 +186,18 @@ def _check_targets(targets: Sequence[Target], compiled: CompiledModel) -> tuple[
                              f"{t.transition!r}")
         if t.t_end is None and (t.scenario is None or spec.scenarios[t.scenario].t_end is None):
             raise ValueError(f"targets[{i}].t_end is required when no scenario gives it")
+        horizon = t.t_end if t.t_end is not None else spec.scenarios[str(t.scenario)].t_end
+        if t.dt is not None and horizon / t.dt > MAX_SAMPLES:
+            raise ValueError(f"targets[{i}].dt: {horizon:g} s at dt = {t.dt:g} s needs "
+                             f"{horizon / t.dt:.3g} samples; at most {MAX_SAMPLES} (raise dt)")
+        for key in ("observable", "at"):
+            text = getattr(t, key)
+            if isinstance(text, str) and text not in compiled.state_names:
+                try:  # an unknown name or bad text fails here, not after the first simulation
+                    Observer(compiled, [text])
+                except ModelError as exc:
+                    raise ValueError(f"targets[{i}].{key}: {exc.message} (token "
+                                     f"{exc.token!r})") from None
     return targets
 
 

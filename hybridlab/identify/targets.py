@@ -43,7 +43,7 @@ from hybridlab.simulation.observe import Observer
 from hybridlab.simulation.result import SimulationResult
 from hybridlab.symbolic.compile import CompiledModel
 
-__all__ = ["KINDS", "Target", "read_targets", "target_statistic"]
+__all__ = ["KINDS", "MAX_SAMPLES", "Target", "read_targets", "target_statistic"]
 
 #: The kinds of target and what they measure.
 KINDS = {
@@ -54,6 +54,8 @@ KINDS = {
     "settling_time": "time to enter the band +-`band` around the final value for good (s)",
 }
 _EVENT_KINDS = ("count", "interval", "value")
+#: The most samples a target's signal is evaluated at (``t_end / dt``): 10 million, 80 MB.
+MAX_SAMPLES = 10_000_000
 #: A count of N means the continuous count lies in (N, N + 1]: its standard deviation.
 COUNT_QUANTUM_SD = 1.0 / math.sqrt(12.0)
 
@@ -148,8 +150,9 @@ class Target:
             raise TargetError(f"must be -1, 0 or 1 (got {self.direction!r})", key="direction")
         for key in ("t_end", "dt"):
             value = getattr(self, key)
-            if value is not None and not (isinstance(value, int | float) and value > 0):
-                raise TargetError(f"must be a positive number (got {value!r})", key=key)
+            if value is not None and not (isinstance(value, int | float) and value > 0
+                                          and math.isfinite(value)):
+                raise TargetError(f"must be a positive finite number (got {value!r})", key=key)
         if self.kind in _EVENT_KINDS:
             if (self.observable is None) == (self.transition is None):
                 raise TargetError(f"a {self.kind!r} target needs exactly one of observable "
@@ -286,6 +289,9 @@ class _Observers:
 def _sample_times(target: Target, result: SimulationResult) -> np.ndarray:
     t0, t1 = float(result.t[0]), float(result.t[-1])
     dt = target.dt or (t1 - t0) / 50000
+    if (t1 - t0) / dt > MAX_SAMPLES:
+        raise TargetError(f"{t1 - t0:g} s at dt = {dt:g} s needs {(t1 - t0) / dt:.3g} samples; "
+                          f"at most {MAX_SAMPLES}", key="dt")
     n = max(int(math.ceil((t1 - t0) / dt)), 2)
     return np.linspace(t0, t1, n + 1)
 
