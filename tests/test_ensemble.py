@@ -310,3 +310,38 @@ def test_a_per_run_time_limit_bounds_each_run_of_a_sweep(tmp_path):
                             executor="serial")
     assert list(table["status"]) == ["TIME_LIMIT", "TIME_LIMIT"]
     assert not table.interrupted
+
+
+def _die_once_at_e_03(result):
+    """Kill the worker process the first time the run with e = 0.3 finishes (a marker file
+    in $HYBRIDLAB_TEST_MARKER says it happened)."""
+    import os
+    from pathlib import Path
+
+    marker = Path(os.environ["HYBRIDLAB_TEST_MARKER"])
+    if result.parameters["e"] == 0.3 and not marker.exists():
+        marker.write_text("died")
+        os._exit(1)
+    return result.final.t
+
+
+def _die_always_at_e_03(result):
+    import os
+
+    if result.parameters["e"] == 0.3:
+        os._exit(1)
+    return result.final.t
+
+
+def test_runs_lost_with_a_dead_worker_are_run_again(tmp_path, monkeypatch):
+    monkeypatch.setenv("HYBRIDLAB_TEST_MARKER", str(tmp_path / "marker"))
+    grid = {"e": [0.1, 0.2, 0.3, 0.4, 0.5, 0.6]}
+    table = hybridlab.sweep("models/bouncing_ball.toml", grid=grid, t_end=1.0,
+                            observe={"t": _die_once_at_e_03}, executor=2, chunksize=1)
+    assert (tmp_path / "marker").exists()  # a worker did die
+    assert list(table["status"]) == ["COMPLETED"] * 6
+    always = hybridlab.sweep("models/bouncing_ball.toml", grid=grid, t_end=1.0,
+                             observe={"t": _die_always_at_e_03}, executor=2, chunksize=1)
+    status = list(always["status"])
+    assert status[2] == "ERROR" and "worker process died" in always.column("error")[2]
+    assert status.count("COMPLETED") == 5

@@ -149,15 +149,7 @@ def _execute(model_arg: Model | CompiledModel | str | Path, runs: list[dict[str,
             for chunk in chunks:
                 collect(chunk, run_chunk(chunk))
         else:
-            futures = {placement.executor.submit(run_chunk, chunk): chunk for chunk in chunks}
-            for future in cf.as_completed(futures):
-                try:
-                    outcome = future.result()
-                except Exception as exc:
-                    text = " ".join(str(exc).split())
-                    collect(futures[future], None, f"{type(exc).__name__}: {text}")
-                else:
-                    collect(futures[future], outcome)
+            placement = _run_pooled(placement, chunks, collect)
     except KeyboardInterrupt:  # keep every finished run; the others say they did not run
         interrupted = True
     finally:
@@ -172,6 +164,48 @@ def _execute(model_arg: Model | CompiledModel | str | Path, runs: list[dict[str,
                        results=tuple(results) if keep == "results" else None,
                        elapsed=time.perf_counter() - started, executor=placement.label,
                        interrupted=interrupted)
+
+
+def _run_pooled(placement: Any, chunks: Sequence[Chunk], collect: Any) -> Any:
+    """Run ``chunks`` on the placement's executor; returns the placement finally used.
+
+    A process that dies (killed by the system, or a run that crashes it) breaks its
+    whole pool: every chunk not finished by then fails with ``BrokenProcessPool``.
+    When the pool is ours, those chunks run once more in a new pool, and what is lost
+    again runs one chunk at a time, each in a pool of its own, so that only the chunk
+    that kills its process is recorded as ``ERROR`` rows.
+    """
+    lost = _submit(placement.executor, chunks, collect)
+    if not (lost and placement.owned and isinstance(placement.executor, cf.ProcessPoolExecutor)):
+        for chunk in lost:
+            collect(chunk, None, "BrokenProcessPool: a worker process died during this run")
+        return placement
+    placement.executor.shutdown(wait=True, cancel_futures=True)
+    placement = dataclasses.replace(
+        placement, executor=cf.ProcessPoolExecutor(max_workers=placement.workers))
+    for chunk in _submit(placement.executor, lost, collect):
+        with cf.ProcessPoolExecutor(max_workers=1) as alone:
+            for again in _submit(alone, [chunk], collect):
+                collect(again, None, "BrokenProcessPool: the worker process died running "
+                                     "this chunk of runs, three times")
+    return placement
+
+
+def _submit(executor: Any, chunks: Sequence[Chunk], collect: Any) -> list[Chunk]:
+    """Run ``chunks`` on ``executor``, collecting each outcome; the chunks a broken pool lost."""
+    futures = {executor.submit(run_chunk, chunk): chunk for chunk in chunks}
+    lost = []
+    for future in cf.as_completed(futures):
+        try:
+            outcome = future.result()
+        except cf.process.BrokenProcessPool:
+            lost.append(futures[future])
+        except Exception as exc:
+            text = " ".join(str(exc).split())
+            collect(futures[future], None, f"{type(exc).__name__}: {text}")
+        else:
+            collect(futures[future], outcome)
+    return lost
 
 
 def _shutdown(placement: Any) -> None:
