@@ -176,3 +176,22 @@ def test_a_compiled_model_is_loaded_from_the_cache_by_the_next_process(tmp_path)
     runs = [subprocess.run([sys.executable, "-c", script], env=env, capture_output=True,
                            text=True, timeout=300) for _ in range(2)]
     assert [r.stdout.strip() for r in runs] == ["False", "True"], [r.stderr for r in runs]
+
+
+def test_a_model_too_large_to_compile_quickly_runs_on_the_reference_engine(tmp_path,
+                                                                           monkeypatch):
+    from hybridlab.simulation.compiled import backend
+
+    monkeypatch.setenv("HYBRIDLAB_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(backend, "MAX_AUTO_COMPILE_LINES", 10)  # the ball's module has ~70
+    model = hybridlab.loads_model(CACHE_MODEL.replace("0.125", "0.25"))
+    with pytest.warns(RuntimeWarning, match=r"the reference engine runs 'cached': its "
+                                             r"generated code has \d+ lines"):
+        auto = hybridlab.simulate(model, t_end=1.0)
+    assert auto.stats["backend"] == "reference" and "slow to compile" in auto.stats["fallback"]
+    forced = hybridlab.simulate(model, t_end=1.0, backend="compiled")
+    assert forced.stats["backend"] == "compiled"
+    assert forced.final.state["x"] == pytest.approx(auto.final.state["x"], rel=1e-8)
+    again = hybridlab.simulate(hybridlab.loads_model(CACHE_MODEL.replace("0.125", "0.25")),
+                               t_end=1.0)  # compiled before: loaded from the cache
+    assert again.stats["backend"] == "compiled"

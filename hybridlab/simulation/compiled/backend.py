@@ -257,6 +257,7 @@ class Prepared:
 
 _SCHED_ON = 15  # index of the per-run "schedule enabled" table in Prepared.ints
 _PREPARED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # per-model memo
+_SLOW: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # models too slow to compile
 
 
 def _unsafe_reason(directory: Path) -> str | None:
@@ -328,9 +329,13 @@ def _drop_entries(directory: Path, name: str) -> None:
         stale.unlink(missing_ok=True)
 
 
-def _import(source: ModelSource) -> tuple[ModuleType, bool]:
+def _module_name(source: ModelSource) -> str:
     digest = hashlib.sha256((source.text + numba.__version__).encode()).hexdigest()[:20]
-    name = f"hybridlab_model_{digest}"
+    return f"hybridlab_model_{digest}"
+
+
+def _import(source: ModelSource) -> tuple[ModuleType, bool]:
+    name = _module_name(source)
     if name in sys.modules:
         return sys.modules[name], True
     directory = _usable_cache_dir()
@@ -349,17 +354,46 @@ def _import(source: ModelSource) -> tuple[ModuleType, bool]:
     return module, hit
 
 
-def prepare(compiled: CompiledModel) -> Prepared:
+#: A model whose generated module is longer than this (and not compiled yet) runs on the
+#: the reference engine under ``backend="auto"``: numba's compile time grows faster than the
+#: code (measured: the trolley's 3,552 lines 16 s; 200 distinct modes, 7,828 lines, 116 s
+#: against 9 s for the whole run on the reference engine).
+MAX_AUTO_COMPILE_LINES = 6_000
+
+
+class SlowToCompile(UnsupportedModel):
+    """The model's generated code would take minutes to compile (see
+    :data:`MAX_AUTO_COMPILE_LINES`)."""
+
+
+def _compiled_before(name: str) -> bool:
+    """Whether numba's cache already holds the generated module ``name``."""
+    folder = cache_dir() / "__pycache__"
+    return folder.is_dir() and any(folder.glob(f"{name}.model-*.nbi"))
+
+
+def prepare(compiled: CompiledModel, max_lines: int | None = None) -> Prepared:
     """Generate, cache and load the compiled form of ``compiled`` (memoised per model).
 
     Raises
     ------
     UnsupportedModel
         When the model cannot be printed for numba.
+    SlowToCompile
+        When ``max_lines`` is given, the generated module is longer and it was not
+        compiled before.
     """
     if compiled in _PREPARED:
         return _PREPARED[compiled]
+    if max_lines is not None and compiled in _SLOW:
+        raise _SLOW[compiled]
     source = generate(compiled)
+    lines = source.text.count("\n")
+    if max_lines is not None and lines > max_lines and not _compiled_before(_module_name(source)):
+        _SLOW[compiled] = SlowToCompile(
+            f"its generated code has {lines} lines (more than {max_lines}), which numba would "
+            "take minutes to compile; backend='compiled' compiles it anyway")
+        raise _SLOW[compiled]
     module, hit = _import(source)
     modes = list(compiled.modes.values())
     index = {name: i for i, name in enumerate(compiled.modes)}
@@ -423,7 +457,11 @@ def run(compiled: CompiledModel, *, t0: float, x0: np.ndarray, mode: str, t_end:
     if len(compiled.state_names) == 0:
         return _fallback(compiled, "a model without states", **kw)
     try:
-        prep = prepare(compiled)
+        prep = prepare(compiled, MAX_AUTO_COMPILE_LINES if o.backend == "auto" else None)
+    except SlowToCompile as exc:
+        warnings.warn(f"hybridlab: the reference engine runs {compiled.model.name!r}: {exc}",
+                      RuntimeWarning, stacklevel=3)
+        return _fallback(compiled, f"slow to compile: {exc}", **kw)
     except UnsupportedModel as exc:
         return _fallback(compiled, f"unsupported model: {exc}", **kw)
     n_tr = len(compiled.transitions)
