@@ -442,7 +442,7 @@ class _Run:
             kwargs["jac"] = jac
         if self.h_last is not None:
             kwargs["first_step"] = min(self.h_last, t_stop - t)
-        self.check_finite(mode, t, x, rhs(t, x), rows, pieces)
+        self.check_finite(mode, t, x, rhs(t, x), rows, phi0[:, 0] if rows else None, pieces)
         solver = _SOLVERS[self.o.method](rhs, t, x, t_stop, **kwargs)
         triggers: list[Trigger] = []
         try:
@@ -486,20 +486,24 @@ class _Run:
         return t, x, triggers, rows
 
     def check_finite(self, mode: CompiledMode, t: float, x: np.ndarray, f: np.ndarray,
-                     rows: list[_Monitor], pieces: _Pieces) -> None:
-        """Stop with ``SOLVER_FAILED`` naming the first non-finite state, flow or monitor at
-        the start of a flow segment (an integrator fed NaN never finishes its first step)."""
-        sym = self.c.symbolic
+                     rows: list[_Monitor], phi: np.ndarray | None, pieces: _Pieces) -> None:
+        """Stop with ``SOLVER_FAILED`` naming the first non-finite state, flow or monitor
+        value ``phi`` at the start of a flow segment (an integrator fed NaN never finishes
+        its first step)."""
+        if np.all(np.isfinite(f)) and np.all(np.isfinite(x)) and (
+                phi is None or np.all(np.isfinite(phi))):
+            return
+        declared = self.c.symbolic.modes[mode.name].flow
         where = ""
         for i, name in enumerate(self.names):
             if not math.isfinite(x[i]):
                 where = f"the state {name} is {float(x[i])!r}"
             elif not math.isfinite(f[i]):
-                where = f"the flow of {name}, {sym.modes[mode.name].flow[i]}, is {float(f[i])!r}"
+                text = declared[i] if declared[i] is not None else mode.flow.exprs[i]
+                where = f"the flow of {name}, {text}, is {float(f[i])!r}"
             if where:
                 break
-        if not where and rows:
-            phi = self.monitor_batch(mode, rows, np.array([t]), x[:, None])[0][:, 0]
+        if not where and phi is not None:
             bad = [r for r, value in enumerate(phi) if not math.isfinite(value)]
             if bad:
                 row = rows[bad[0]]

@@ -355,8 +355,8 @@ def _import(source: ModelSource) -> tuple[ModuleType, bool]:
 
 
 #: A model whose generated module is longer than this (and not compiled yet) runs on the
-#: the reference engine under ``backend="auto"``: numba's compile time grows faster than the
-#: code (measured: the trolley's 3,552 lines 16 s; 200 distinct modes, 7,828 lines, 116 s
+#: reference engine under ``backend="auto"``: numba's compile time grows faster than the
+#: code (measured: 3,552 lines in 16 s; a ring of 200 distinct modes, 7,828 lines, in 116 s
 #: against 9 s for the whole run on the reference engine).
 MAX_AUTO_COMPILE_LINES = 6_000
 
