@@ -24,10 +24,12 @@ class ReachOptions:
         Zonotope order kept after each step (generators per dimension); excess
         generators are boxed (Girard's method). Higher is tighter and slower.
     taylor_terms : int
-        Least number of terms of the matrix exponential's Taylor series; more
-        are taken (up to 80) until the remainder bound, sound for any number of
-        terms, is below ``1e-15`` (stiff modes need many). ``|A| * step`` must stay
-        below 41.
+        Least number of terms of the Taylor series of the correction terms in
+        the slow part of a mode; more are taken (up to 80) until the remainder
+        bound, sound for any number of terms, is below ``1e-15``. Modes with
+        eigenvalues faster than ``1 / step`` are split by time scale and their
+        fast part enclosed in closed form, so the step is not limited by
+        stiffness (``docs/verification.md``, "Stiff modes").
     max_jumps : int
         Longest run of jumps followed; a branch cut here makes the result
         incomplete.
@@ -51,8 +53,8 @@ class ReachOptions:
         Stop a branch whose initial set lies inside an earlier initial set of
         the same mode (time-invariant models only).
     bloat : float
-        Relative enlargement of every computed set covering floating-point
-        rounding of the matrix products.
+        Extra relative enlargement of every step's sets, on top of the bounds
+        of the floating-point rounding (which are always added). 0 by default.
     split : int
         Split the initial set into this many pieces along each of its
         generators (each uncertain initial state or parameter) and analyse
@@ -74,7 +76,7 @@ class ReachOptions:
     max_sets: int = 200_000
     remainder_iterations: int = 8
     fixpoint: bool = True
-    bloat: float = 1e-12
+    bloat: float = 0.0
     split: int = 1
 
     def __post_init__(self) -> None:

@@ -22,6 +22,7 @@ import numpy as np
 from scipy.optimize import linprog
 
 from hybridlab.errors import HybridlabError
+from hybridlab.reachability.rounding import U, product_error, up
 
 __all__ = ["SetError", "Box", "Zonotope", "Polytope", "as_zonotope"]
 
@@ -101,7 +102,9 @@ class Box:
     def to_zonotope(self) -> Zonotope:
         """The same box as a zonotope (one generator per non-degenerate axis)."""
         c = 0.5 * (self.lo + self.hi)
-        r = np.nextafter(0.5 * (self.hi - self.lo), np.inf)
+        # c and hi - lo are each within one rounding of their exact values
+        r = np.where(self.hi > self.lo,
+                     up(0.5 * (self.hi - self.lo) * (1 + 2 * U) + U * np.abs(c)), 0.0)
         axes = np.flatnonzero(r > 0)
         G = np.zeros((self.dim, axes.size))
         G[axes, np.arange(axes.size)] = r[axes]
@@ -153,8 +156,8 @@ class Zonotope:
         return self.generators.shape[1] / max(self.dim, 1)
 
     def radius(self) -> np.ndarray:
-        """Half-widths of the interval hull."""
-        return np.nextafter(np.sum(np.abs(self.generators), axis=1), np.inf)
+        """Half-widths of the interval hull (rounded up)."""
+        return up(np.sum(np.abs(self.generators), axis=1), self.generators.shape[1])
 
     def bounds(self) -> np.ndarray:
         """The interval hull, shape ``(n, 2)``, rounded outward."""
@@ -164,7 +167,13 @@ class Zonotope:
     def support(self, direction: Sequence[float]) -> float:
         """``max d . x`` over the zonotope (exact: ``d.c + sum |d.g_i|``)."""
         d = _vector(direction, "direction")
-        return float(d @ self.center + np.sum(np.abs(d @ self.generators)))
+        dG = d @ self.generators
+        value = float(d @ self.center + np.sum(np.abs(dG)))
+        # rounded up: the products' error bounds and the sum's
+        err = (product_error(np.abs(d)[None, :], np.abs(self.center))[0]
+               + float(np.sum(product_error(np.abs(d)[None, :], np.abs(self.generators))))
+               + 2 * U * (abs(value) + float(np.sum(np.abs(dG)))))
+        return float(up(value + float(up(err))))
 
     def interval_hull(self) -> Box:
         """The smallest box containing the zonotope."""
@@ -176,21 +185,27 @@ class Zonotope:
         return self.interval_hull().to_zonotope()
 
     def linear_map(self, M: Any, offset: Any = None) -> Zonotope:
-        """``{M x + offset}``, exact."""
+        """``{M x + offset}``, exact up to the products' rounding, which is enclosed by a box."""
         M = np.atleast_2d(np.asarray(M, dtype=float))
         c = M @ self.center
         if offset is not None:
             c = c + np.asarray(offset, dtype=float)
-        return Zonotope(c, M @ self.generators)
+        G = M @ self.generators
+        err = product_error(np.abs(M), up(np.abs(self.center)
+                                          + np.sum(np.abs(self.generators), axis=1)))
+        err = up(err + U * np.abs(c))  # the offset's addition
+        return Zonotope(c, np.hstack([G, np.diag(err)])).compact()
 
     def minkowski_sum(self, other: Zonotope | Box | np.ndarray) -> Zonotope:
         """``{x + y}``, exact; ``other`` may also be a vector (a translation)."""
         if isinstance(other, Box):
             other = other.to_zonotope()
+        shift = other.center if isinstance(other, Zonotope) else np.asarray(other, dtype=float)
+        center = self.center + shift
+        gens = [self.generators, np.diag(up(U * np.abs(center)))]  # the addition's rounding
         if isinstance(other, Zonotope):
-            return Zonotope(self.center + other.center,
-                            np.hstack([self.generators, other.generators]))
-        return Zonotope(self.center + np.asarray(other, dtype=float), self.generators)
+            gens.insert(1, other.generators)
+        return Zonotope(center, np.hstack(gens)).compact()
 
     __add__ = minkowski_sum
 
@@ -225,7 +240,7 @@ class Zonotope:
         ranked = np.argsort(score)
         n_box = G.shape[1] - limit + n
         boxed, kept = ranked[:n_box], ranked[n_box:]
-        radius = np.nextafter(np.sum(np.abs(G[:, boxed]), axis=1), np.inf)
+        radius = up(np.sum(np.abs(G[:, boxed]), axis=1), boxed.size)
         return Zonotope(self.center, np.hstack([G[:, kept], np.diag(radius)])).compact()
 
     def halfspaces(self) -> tuple[np.ndarray, np.ndarray] | None:
@@ -351,7 +366,11 @@ class Zonotope:
         if np.any(lo > hi):
             return None
         mid, rad = 0.5 * (lo + hi), 0.5 * (hi - lo)
-        return Zonotope(c + G @ mid, G * rad).compact()
+        rad = up(rad) + U  # mid is within u of (lo + hi) / 2, and |mid| <= 1
+        center = c + G @ mid
+        err = up(product_error(np.abs(G), np.abs(mid)) + U * np.abs(center)
+                 + U * np.sum(np.abs(G) * rad, axis=1))
+        return Zonotope(center, np.hstack([G * rad, np.diag(err)])).compact()
 
     def may_intersect(self, a: Sequence[float], b: float) -> bool:
         """Whether some point satisfies ``a . x <= b``."""

@@ -1,0 +1,186 @@
+"""Affine flowpipes at any stiffness and scale: the exponential's enclosure against
+mpmath, the fast blocks' enclosures against dense samples, random stiff and badly
+scaled systems against sampled trajectories, and tightness on a stiff system."""
+
+from __future__ import annotations
+
+import math
+
+import mpmath
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from scipy.integrate import solve_ivp
+from scipy.linalg import expm
+
+import hybridlab
+from hybridlab.reachability.balls import expm_enclosure
+from hybridlab.reachability.linear import Propagator, affine_step
+from hybridlab.reachability.modal import fast_block
+from hybridlab.reachability.sets import Zonotope
+
+MATRICES = {
+    "stiff 2x2, |A| r = 1800": (np.array([[-1.0, 1.0], [0.0, -2000.0]]), 0.9),
+    "badly scaled": (np.array([[-1e-4, 1e4], [-1e-4, -3.0]]), 0.5),
+    "fast rotation": (np.array([[-50.0, 3000.0], [-3000.0, -50.0]]), 0.2),
+    "Jordan block": (np.array([[-500.0, 1e3, 0.0], [0.0, -500.0, 1e3], [0.0, 0.0, -500.0]]), 0.1),
+    "homogeneous, large drift": (np.array([[-1e5, 0.0, 3e7], [1.0, -2.0, 5.0],
+                                           [0.0, 0.0, 0.0]]), 0.05),
+    "unstable and stiff": (np.array([[3.0, 1.0], [0.0, -1e4]]), 1.0),
+}
+
+
+def _mp_expm(M: np.ndarray, r: float) -> np.ndarray:
+    with mpmath.workdps(60):
+        E = mpmath.expm(mpmath.matrix(M.tolist()) * mpmath.mpf(r))
+        return np.array([[E[i, j] for j in range(M.shape[1])] for i in range(M.shape[0])],
+                        dtype=object)
+
+
+@pytest.mark.parametrize("name", sorted(MATRICES))
+def test_the_exponential_enclosure_holds_the_exact_value(name):
+    M, r = MATRICES[name]
+    mid, rad = expm_enclosure(M, r)
+    exact = _mp_expm(M, r)
+    with mpmath.workdps(60):
+        for i in range(M.shape[0]):
+            for j in range(M.shape[1]):
+                assert abs(exact[i, j] - mpmath.mpf(mid[i, j])) <= mpmath.mpf(rad[i, j]), (i, j)
+    scale = np.max(np.abs(mid))
+    assert np.max(rad) <= 1e-9 * scale  # and tight, not merely sound
+
+
+@pytest.mark.parametrize("block, r", [
+    (np.array([[-2000.0]]), 0.9), (np.array([[1e3]]), 0.01), (np.array([[-3.0]]), 1.0),
+    (np.array([[-50.0, 3000.0], [-3000.0, -50.0]]), 0.05),
+    (np.array([[-400.0, 1e3], [0.0, -400.0]]), 0.2),
+])
+def test_a_fast_block_encloses_its_interpolation_error_and_gain(block, r):
+    blk = fast_block(block, r)
+    t = np.unique(np.r_[np.linspace(0.0, r, 2001), np.geomspace(1e-9 * r, r, 4000)])
+    phi = expm(block * r)
+    eye = np.eye(block.shape[0])
+    E = expm(block[None] * t[:, None, None])  # batched
+    F = E - eye - t[:, None, None] / r * (phi - eye)
+    tol = 1e-12 * (1 + np.abs(F))
+    assert np.all(blk.F_mid - blk.F_rad - tol <= F) and np.all(blk.F_mid + blk.F_rad + tol >= F)
+    absE = np.abs(E)
+    integral = np.trapezoid(absE, t, axis=0)
+    assert np.all(blk.gain >= integral * (1 - 1e-3))
+    assert np.all(np.linalg.norm(absE, ord=np.inf, axis=(1, 2)) <= blk.sup_norm * (1 + 1e-12))
+
+
+def _random_system(draw, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """A random ``A`` with eigenvalues spread over up to six decades, maybe complex,
+    in a random (maybe badly scaled) basis, and a random constant."""
+    rates = [10 ** draw(st.floats(-2.0, 4.0)) for _ in range(n)]
+    D = np.diag([-rate if draw(st.booleans()) or rate > 10 else rate * 0.3 for rate in rates])
+    if n >= 2 and draw(st.booleans()):
+        w = 10 ** draw(st.floats(0.0, 3.5))
+        D[0, 1], D[1, 0] = w, -w
+        D[1, 1] = D[0, 0]
+    scales = 10 ** np.array([draw(st.floats(-2.0, 2.0)) for _ in range(n)])
+    V = np.array([[draw(st.floats(-1.0, 1.0)) for _ in range(n)] for _ in range(n)]) + 2 * np.eye(n)
+    V = np.diag(scales) @ V
+    A = V @ D @ np.linalg.inv(V)
+    c = np.array([draw(st.floats(-10.0, 10.0)) for _ in range(n)])
+    return A, c
+
+
+@st.composite
+def stiff_steps(draw):
+    n = draw(st.integers(1, 3))
+    A, c = _random_system(draw, n)
+    r = 10 ** draw(st.floats(-3.0, 0.0))
+    center = np.array([draw(st.floats(-5.0, 5.0)) for _ in range(n)])
+    width = np.array([10 ** draw(st.floats(-3.0, 0.0)) for _ in range(n)])
+    with_input = draw(st.booleans())
+    w = np.array([10 ** draw(st.floats(-2.0, 1.0)) for _ in range(n)]) if with_input else None
+    seed = draw(st.integers(0, 2 ** 31 - 1))
+    return A, c, r, center, width, w, seed
+
+
+def _trajectories(A, c, r, X0, w, rng, n_times=12):
+    """Exact states at dense instants: constant inputs held on random pieces
+    (bang-bang), each piece by the exponential of the augmented matrix."""
+    n = A.shape[0]
+    out = []
+    for x0 in X0:
+        pieces = np.sort(np.r_[0.0, rng.uniform(0, r, 3), r])
+        times = np.sort(np.r_[rng.uniform(0, r, n_times), 0.0, r])
+        x, t_now, k = x0.copy(), 0.0, 0
+        wk = np.zeros(n) if w is None else w * rng.choice([-1.0, 1.0], n)
+        states = []
+        for t in times:
+            while k + 1 < len(pieces) and pieces[k + 1] < t:
+                x = _advance(A, c + wk, x, pieces[k + 1] - t_now)
+                t_now = pieces[k + 1]
+                k += 1
+                wk = np.zeros(n) if w is None else w * rng.choice([-1.0, 1.0], n)
+            states.append(_advance(A, c + wk, x, t - t_now))
+        out.append(np.array(states))
+    return out
+
+
+def _advance(A, c, x, dt):
+    n = A.shape[0]
+    Ah = np.zeros((n + 1, n + 1))
+    Ah[:n, :n], Ah[:n, n] = A, c
+    return (expm(Ah * dt) @ np.r_[x, 1.0])[:n]
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(stiff_steps())
+def test_random_stiff_and_badly_scaled_steps_contain_every_sampled_trajectory(case):
+    A, c, r, center, width, w, seed = case
+    rng = np.random.default_rng(seed)
+    n = A.shape[0]
+    prop = Propagator.build(A, c, r, 10)
+    P = Zonotope(center, np.diag(width))
+    W = None if w is None else Zonotope(np.zeros(n), np.diag(w))
+    P_next, H = affine_step(P, prop, W)
+    corners = center + width * rng.choice([-1.0, 1.0], (4, n))
+    inner = center + width * rng.uniform(-1, 1, (2, n))
+    runs = _trajectories(A, c, r, np.vstack([corners, inner]), w, rng)
+    states = np.vstack(runs)
+    scale = 1e-9 * (1.0 + np.max(np.abs(states)))  # scipy's expm is the reference here
+    lo, hi = H.bounds().T
+    assert np.all(states >= lo - scale) and np.all(states <= hi + scale)
+    assert np.all(H.contains_points(states, tol=scale))
+    ends = np.array([run[-1] for run in runs])
+    assert np.all(P_next.contains_points(ends, tol=scale))
+
+
+STIFF = """
+name = "stiff2"
+[parameters]
+k = { value = 2000.0 }
+[states]
+x = { initial = 1.0 }
+y = { initial = 0.0 }
+[modes.run]
+flow = { x = "-x + y", y = "-k*y + 1" }
+[initial]
+mode = "run"
+"""
+
+
+def test_a_stiff_system_is_enclosed_within_five_times_its_simulated_range(tmp_path):
+    path = tmp_path / "stiff2.toml"
+    path.write_text(STIFF)
+    result = hybridlab.reach(path, initial={"x": (0.9, 1.1), "y": (-0.5, 0.5)}, t_end=5.0)
+    assert result.complete
+    lo = np.full(2, np.inf)
+    hi = -lo
+    for x0 in (0.9, 1.1):
+        for y0 in (-0.5, 0.5):
+            sol = solve_ivp(lambda t, z: [-z[0] + z[1], -2000 * z[1] + 1], (0, 5), [x0, y0],
+                            method="Radau", rtol=1e-10, atol=1e-12, dense_output=True)
+            zz = sol.sol(np.linspace(0, 5, 50001))
+            lo, hi = np.minimum(lo, zz.min(axis=1)), np.maximum(hi, zz.max(axis=1))
+    for i, name in enumerate(("x", "y")):
+        b_lo, b_hi = result.bounds[name]
+        assert b_lo <= lo[i] + 1e-9 and b_hi >= hi[i] - 1e-9  # sound
+        assert (b_hi - b_lo) <= 5 * (hi[i] - lo[i])  # and tight
+        assert math.isfinite(b_lo) and math.isfinite(b_hi)
