@@ -170,19 +170,32 @@ class Propagator:
         phi, phi_rad = expm_enclosure(Ah, r)
         if not np.all(np.isfinite(phi_rad)):
             raise StepError(f"e^(A r) overflows for the step {r:g}; lower `step`")
-        basis = block_basis(Ah, r)
+        failure = StepError("no basis encloses this step")
+        for basis in (block_basis(Ah, r), block_basis(Ah, r, stiff=False), None):
+            try:
+                return Propagator._in_basis(A, Ah, phi, phi_rad, r, eta, basis)
+            except StepError as exc:  # this basis's bounds are useless: try a plainer one
+                failure = exc
+        raise failure
+
+    @staticmethod
+    def _in_basis(A: np.ndarray, Ah: np.ndarray, phi: np.ndarray, phi_rad: np.ndarray,
+                  r: float, eta: int, basis: Basis | None) -> Propagator:
         if basis is None:
             return Propagator(A=A, phi=phi, phi_rad=phi_rad, r=r,
                               slow=TaylorBlock.build(Ah, r, eta), basis=None, fast=(),
                               coupling=0.0, input_coupling=0.0)
         s = basis.blocks[0]
+        slow = TaylorBlock.build(basis.B[s, s], r, eta)
         fast = tuple(fast_block(basis.B[b, b], r) for b in basis.blocks[1:])
         slow_norm = float(up(np.max(np.sum(np.abs(basis.B[s, s]), axis=1))))
-        sup_norm = max([math.exp(min(slow_norm * r, 700.0))] + [f.sup_norm for f in fast])
+        sup_norm = max([math.exp(slow_norm * r)] + [f.sup_norm for f in fast])
         # Gronwall: |e^{Bt} - e^{B_D t}| <= M (e^{M eps t} - 1) for t <= r
-        drift = sup_norm * math.expm1(sup_norm * basis.eps * r) * (1 + 1e-12) + 1e-300
-        return Propagator(A=A, phi=phi, phi_rad=phi_rad, r=r,
-                          slow=TaylorBlock.build(basis.B[s, s], r, eta), basis=basis,
+        growth = sup_norm * basis.eps * r
+        if not growth < 1e-3:
+            raise StepError(f"the block basis is too ill-conditioned for the step {r:g}")
+        drift = sup_norm * math.expm1(growth) * (1 + 1e-12) + 1e-300
+        return Propagator(A=A, phi=phi, phi_rad=phi_rad, r=r, slow=slow, basis=basis,
                           fast=fast, coupling=2.0 * drift, input_coupling=drift * r)
 
     # -- the states between the step ends --------------------------------------------

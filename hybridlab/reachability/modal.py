@@ -37,6 +37,12 @@ Examples
 >>> basis = block_basis(Ah, 0.1)
 >>> [b.stop - b.start for b in basis.blocks], basis.n_slow
 ([2, 1], 2)
+
+A badly scaled mode (large entries, slow eigenvalues) is balanced instead:
+
+>>> scaled = block_basis(np.array([[0.0, 1e4, 0.0], [-1e-4, 0.0, 0.0], [0.0, 0.0, 0.0]]), 1.0)
+>>> np.diag(scaled.S).tolist(), len(scaled.blocks)
+([8192.0, 1.0, 1.0], 1)
 """
 
 from __future__ import annotations
@@ -58,6 +64,7 @@ FAST = 1.0
 _MAX_CONDITION = 1e8      # eigenvector bases worse than this keep the fast block whole
 _MAX_PIECES = 4096        # subdivision of a step for a non-scalar fast block
 _PIECE_NORM = 0.25        # |B_j| h per piece
+_MAX_BALANCE = 16         # balancing scales stay within 2**-16 .. 2**16
 
 
 @dataclass(frozen=True, eq=False)
@@ -112,15 +119,37 @@ def _is_slow(r: float):  # noqa: ANN202 - scipy's sort callback
     return lambda re, im: math.hypot(re, im) * r <= FAST
 
 
-def block_basis(Ah: np.ndarray, r: float) -> Basis | None:
-    """The stiff basis of ``A_h`` for steps ``r``, or ``None`` when no eigenvalue is fast.
+def block_basis(Ah: np.ndarray, r: float, stiff: bool = True) -> Basis | None:
+    """The basis of ``A_h`` for steps ``r``, or ``None`` when the state coordinates do.
 
-    Also ``None`` when the basis cannot be certified (``S`` numerically
-    singular); the caller then keeps the plain Taylor step.
+    A mode with fast eigenvalues gets the stiff basis; a mode without them but with
+    a large ``|A_h| r`` (badly scaled: large entries, slow dynamics) gets a diagonal
+    power-of-two balancing (Parlett and Reinsch), which changes no eigenvalue and
+    rounds nothing. The slow block of a stiff basis is balanced too. With
+    ``stiff=False`` only the balancing is tried. ``None`` also when the basis
+    cannot be certified (``S`` numerically singular).
     """
     lam = np.linalg.eigvals(Ah)
-    if not np.all(np.isfinite(lam)) or np.max(np.abs(lam)) * r <= FAST:
+    if not np.all(np.isfinite(lam)):
         return None
+    n = Ah.shape[0]
+    if not stiff or np.max(np.abs(lam)) * r <= FAST:
+        if np.max(np.sum(np.abs(Ah), axis=1)) * r <= FAST:
+            return None
+        S, sizes, n_slow = np.eye(n), [], n
+    else:
+        found = _stiff_basis(Ah, r)
+        if found is None:
+            return None
+        S, sizes, n_slow = found
+    S = _balance_slow(Ah, S, n_slow)
+    if S is None:
+        return None
+    return _certify(Ah, S, n_slow, sizes)
+
+
+def _stiff_basis(Ah: np.ndarray, r: float) -> tuple[np.ndarray, list[int], int] | None:
+    """``(S, fast block sizes, number of slow coordinates)``, float, uncertified."""
     n = Ah.shape[0]
     T, Q, n_slow = linalg.schur(Ah, output="real", sort=_is_slow(r))
     if n_slow == n or n_slow == 0:
@@ -135,7 +164,32 @@ def block_basis(Ah: np.ndarray, r: float) -> Basis | None:
     S = Q @ decouple @ basis
     if not np.all(np.isfinite(S)):
         return None
-    S = S / np.max(np.abs(S), axis=0)  # unit columns keep the products well scaled
+    return S / np.max(np.abs(S), axis=0), fast_sizes, n_slow  # unit columns scale well
+
+
+def _balance_slow(Ah: np.ndarray, S: np.ndarray, n_slow: int) -> np.ndarray | None:
+    """``S`` with its slow columns scaled by powers of two that balance the slow block."""
+    try:
+        B = np.linalg.solve(S, Ah @ S)
+    except np.linalg.LinAlgError:
+        return None
+    if not np.all(np.isfinite(B)):
+        return None
+    slow = B[:n_slow, :n_slow]
+    _, (scale, _) = linalg.matrix_balance(slow, permute=False, separate=True)
+    # a zero row (the homogeneous coordinate, a constant) cannot be balanced: the
+    # iteration shrinks its column without bound, which would make S nearly singular
+    scale = np.exp2(np.clip(np.log2(scale), -_MAX_BALANCE, _MAX_BALANCE))
+    balanced = slow * (scale[None, :] / scale[:, None])
+    if np.max(np.sum(np.abs(balanced), axis=1)) >= np.max(np.sum(np.abs(slow), axis=1)):
+        return S
+    S = S.copy()
+    S[:, :n_slow] *= scale
+    return S
+
+
+def _certify(Ah: np.ndarray, S: np.ndarray, n_slow: int, fast_sizes: list[int]) -> Basis | None:
+    """Enclose ``S^{-1}`` and ``S^{-1} A_h S`` in ball arithmetic."""
     try:
         S_ball = to_arb(S)
         inv_ball = S_ball.inv()
