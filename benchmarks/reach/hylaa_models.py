@@ -8,18 +8,26 @@ Prints one JSON line ``{"verdict": "SAFE" | "UNSAFE" | "UNKNOWN", "time_s": ...}
 This file imports only Hylaa and numpy/scipy, never hybridlab: Hylaa is a benchmark
 peer, not a dependency. Hylaa handles affine dynamics only (the Van der Pol benchmark
 is not written here). Hylaa's default semantics is discrete time: sets are checked at
-the time steps, not between them.
+the time steps, not between them. Constants and affine terms are extra states (``one == 1``,
+an uncertain constant as a state with zero flow); each disjunct of a SpaceEx forbidden set
+is a transition to an error mode. The building's 48x48 matrix is read from
+``models/spaceex/building.xml`` (its flows are sums of ``coefficient*variable`` terms).
 """
 
 from __future__ import annotations
 
 import json
+import math
+import re
 import sys
 import time
+import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import numpy as np
 
 G, C = 1.0, 0.75  # the SpaceEx ball constants (bouncing_ball.xml)
+SPACEEX = Path(__file__).resolve().parents[2] / "models" / "spaceex"
 
 
 def _ball(forbidden_row: list[float], forbidden_rhs: float, step: float, t_end: float):
@@ -48,11 +56,184 @@ def _ball(forbidden_row: list[float], forbidden_rhs: float, step: float, t_end: 
     return Core(ha, settings).run([StateSet(init, mode)])
 
 
+def _hylaa():
+    from hylaa import lputil
+    from hylaa.core import Core
+    from hylaa.hybrid_automaton import HybridAutomaton
+    from hylaa.settings import HylaaSettings, PlotSettings
+    from hylaa.stateset import StateSet
+
+    return lputil, Core, HybridAutomaton, HylaaSettings, PlotSettings, StateSet
+
+
+def _settings(step: float, t_end: float):
+    _, _, _, HylaaSettings, PlotSettings, _ = _hylaa()
+    settings = HylaaSettings(step, t_end)
+    settings.plot.plot_mode = PlotSettings.PLOT_NONE
+    settings.stdout = HylaaSettings.STDOUT_NONE
+    return settings
+
+
+def _error_transitions(ha, mode, n: int, disjuncts) -> None:
+    """One transition to the error mode per disjunct, a list of (row dict, rhs): row . x <= rhs."""
+    error = ha.modes.get("_error") or ha.new_mode("_error")
+    for k, rows in enumerate(disjuncts):
+        g = np.zeros((len(rows), n))
+        rhs = np.zeros(len(rows))
+        for i, (row, r) in enumerate(rows):
+            for j, c in row.items():
+                g[i, j] = c
+            rhs[i] = r
+        ha.new_transition(mode, error, f"forbidden_{mode.name}_{k}").set_guard(g, rhs)
+
+
+# spacecraft (spacecraft.xml): states x, y, vx, vy, t, tabort, one
+_SC_APPROACH = [[-0.057599765881773, 0.000200959896519766, -2.89995083970656, 0.00877200894463775],
+                [-0.000174031357370456, -0.0665123984901026, -0.00875351105536225,
+                 -2.90300269286856]]
+_SC_RENDEZVOUS = [[-0.575999943070835, 0.000262486079431672, -19.2299795908647,
+                   0.00876275931760007],
+                  [-0.000262486080737868, -0.575999940191886, -0.00876276068239993,
+                   -19.2299765959399]]
+_SC_ABORT = [[0.0000575894721132, 0.0, 0.0, 0.00876276], [0.0, 0.0, -0.00876276, 0.0]]
+
+
+def _spacecraft(t_lo: float, t_hi: float, step: float = 0.2, t_end: float = 300.0):
+    lputil, Core, HybridAutomaton, _, _, StateSet = _hylaa()
+    n = 7
+    X, Y, VX, VY, T, TA, ONE = range(n)
+
+    def dyn(rows):
+        a = np.zeros((n, n))
+        a[X, VX] = a[Y, VY] = 1.0
+        a[VX, :4] = rows[0]
+        a[VY, :4] = rows[1]
+        a[T, ONE] = 1.0
+        return a
+
+    ha = HybridAutomaton("spacecraft")
+    approach = ha.new_mode("approaching")
+    approach.set_dynamics(dyn(_SC_APPROACH))
+    approach.set_invariant([[1.0, 0, 0, 0, 0, 0, 0], [0, 0, 0, 0, 1.0, -1.0, 0]], [-100.0, 0.0])
+    rendezvous = ha.new_mode("rendezvous")
+    rendezvous.set_dynamics(dyn(_SC_RENDEZVOUS))
+    octagon = [[-1.0, 0], [1.0, 0], [0, -1.0], [0, 1.0], [-1.0, -1.0], [1.0, 1.0], [1.0, -1.0],
+               [-1.0, 1.0]]
+    inv = np.zeros((9, n))
+    inv[:8, :2] = octagon
+    inv[8, T], inv[8, TA] = 1.0, -1.0
+    rendezvous.set_invariant(inv, [100.0] * 4 + [141.1] * 4 + [0.0])
+    abort = ha.new_mode("aborting")
+    abort.set_dynamics(dyn(_SC_ABORT))
+    ha.new_transition(approach, rendezvous, "approach").set_guard([[-1.0, 0, 0, 0, 0, 0, 0]],
+                                                                  [100.0])
+    for src in (approach, rendezvous):
+        ha.new_transition(src, abort, "abort").set_guard([[0, 0, 0, 0, -1.0, 1.0, 0]], [0.0])
+    t30 = math.tan(math.pi / 6)
+    # forbidden (spacecraft_sra0*.cfg), each disjunct as rows r . x <= rhs
+    _error_transitions(ha, rendezvous, n, [
+        [({VX: -1.0}, -3.0)], [({VX: 1.0}, -3.0)], [({VY: -1.0}, -3.0)], [({VY: 1.0}, -3.0)],
+        [({VX: -1.0, VY: -1.0}, -4.2)], [({VX: -1.0, VY: 1.0}, -4.2)],
+        [({VX: 1.0, VY: -1.0}, -4.2)], [({VX: 1.0, VY: 1.0}, -4.2)],
+        [({X: -t30, Y: 1.0}, 0.0)], [({X: -t30, Y: -1.0}, 0.0)]])
+    _error_transitions(ha, abort, n, [[({X: -1.0}, 0.1), ({X: 1.0}, 0.1), ({Y: -1.0}, 0.1),
+                                       ({Y: 1.0}, 0.1)]])
+    init = lputil.from_box([(-925.0, -875.0), (-425.0, -375.0), (0.0, 0.0), (0.0, 0.0),
+                            (0.0, 0.0), (t_lo, t_hi), (1.0, 1.0)], approach)
+    return Core(ha, _settings(step, t_end)).run([StateSet(init, approach)])
+
+
+def _building_matrices():
+    """A (48x48) and B (48) from building.xml: flows are sums of coefficient*variable."""
+    root = ET.parse(SPACEEX / "building.xml").getroot()
+    n = 48
+    a, b = np.zeros((n, n)), np.zeros(n)
+    term = re.compile(r"([+-]?)\s*(?:([0-9.eE+-]+)\*)?(x\d+|u1)")
+    for flow in root.iter("{http://www-verimag.imag.fr/xml-namespaces/sspaceex}flow"):
+        for eq in flow.text.split("&"):
+            lhs, rhs = eq.split("==")
+            i = int(lhs.strip().rstrip("'")[1:]) - 1
+            for sign, coef, var in term.findall(rhs):
+                c = (float(coef) if coef else 1.0) * (-1.0 if sign == "-" else 1.0)
+                if var == "u1":
+                    b[i] += c
+                else:
+                    a[i, int(var[1:]) - 1] += c
+    return a, b
+
+
+def _building(step: float = 0.002, t_end: float = 20.0):
+    lputil, Core, HybridAutomaton, _, _, StateSet = _hylaa()
+    a, b = _building_matrices()
+    n = 48
+    ha = HybridAutomaton("building")
+    mode = ha.new_mode("model")
+    mode.set_dynamics(a)
+    mode.set_inputs(b.reshape(n, 1), [[1.0], [-1.0]], [1.0, -0.8])  # u1 in [0.8, 1]
+    _error_transitions(ha, mode, n, [[({24: -1.0}, -0.0051)]])  # x25 >= 0.0051
+    box = [(0.0002, 0.00025)] * 10 + [(0.0, 0.0)] * 14 + [(-0.0001, 0.0001)] + [(0.0, 0.0)] * 23
+    init = lputil.from_box(box, mode)
+    return Core(ha, _settings(step, t_end)).run([StateSet(init, mode)])
+
+
+def _room_heating(step: float = 0.05, t_end: float = 1800.0):
+    """room_heating.xml: states x1, x2, one; a = 0.5, b = 0.4 / 0.3, c = 6 / 7, u = 11."""
+    lputil, Core, HybridAutomaton, _, _, StateSet = _hylaa()
+    a_, b1, b2, c1, c2, u = 0.5, 0.4, 0.3, 6.0, 7.0, 11.0
+    on, off, get, dif = 20.0, 21.0, 18.0, 1.0
+    ha = HybridAutomaton("room_heating")
+    modes = {}
+    for name, h1, h2, inv in (("heat1_on", 1, 0, ([[1.0, 0, 0]], [off])),
+                              ("heat1_off", 0, 0, ([[-1.0, 0, 0]], [-on])),
+                              ("heat2_on", 0, 1, ([[0, 1.0, 0]], [off])),
+                              ("heat2_off", 0, 0, ([[0, -1.0, 0]], [-on]))):
+        m = ha.new_mode(name)
+        m.set_dynamics([[-(a_ + b1), a_, c1 * h1 + b1 * u],
+                        [a_, -(a_ + b2), c2 * h2 + b2 * u],
+                        [0, 0, 0]])
+        m.set_invariant(*inv)
+        modes[name] = m
+    m = modes
+    ha.new_transition(m["heat1_on"], m["heat1_off"], "off1").set_guard([[-1.0, 0, 0]], [-off])
+    ha.new_transition(m["heat1_off"], m["heat1_on"], "on1").set_guard([[1.0, 0, 0]], [on])
+    ha.new_transition(m["heat2_on"], m["heat2_off"], "off2").set_guard([[0, -1.0, 0]], [-off])
+    ha.new_transition(m["heat2_off"], m["heat2_on"], "on2").set_guard([[0, 1.0, 0]], [on])
+    for src in ("heat1_on", "heat1_off"):  # x2 <= get & x1 - x2 >= dif
+        ha.new_transition(m[src], m["heat2_on"], "move12").set_guard(
+            [[0, 1.0, 0], [-1.0, 1.0, 0]], [get, -dif])
+    for src in ("heat2_on", "heat2_off"):
+        ha.new_transition(m[src], m["heat1_on"], "move21").set_guard(
+            [[1.0, 0, 0], [1.0, -1.0, 0]], [get, -dif])
+    for mode in m.values():  # forbidden x_i <= 17 | x_i >= 22
+        _error_transitions(ha, mode, 3, [[({0: 1.0}, 17.0)], [({0: -1.0}, -22.0)],
+                                         [({1: 1.0}, 17.0)], [({1: -1.0}, -22.0)]])
+    init = lputil.from_box([(20.4, 20.6), (19.9, 20.1), (1.0, 1.0)], m["heat1_on"])
+    return Core(ha, _settings(step, t_end)).run([StateSet(init, m["heat1_on"])])
+
+
+def _stiff2d(step: float = 0.001, t_end: float = 5.0):
+    """stiff2d.xml: x' = -x + 1000 y + 1, y' = -2000 y; states x, y, one."""
+    lputil, Core, HybridAutomaton, _, _, StateSet = _hylaa()
+    ha = HybridAutomaton("stiff2d")
+    mode = ha.new_mode("run")
+    mode.set_dynamics([[-1.0, 1000.0, 1.0], [0, -2000.0, 0], [0, 0, 0]])
+    _error_transitions(ha, mode, 3, [[({0: -1.0}, -1.8)]])  # x >= 1.8
+    init = lputil.from_box([(0.9, 1.1), (0.9, 1.1), (1.0, 1.0)], mode)
+    return Core(ha, _settings(step, t_end)).run([StateSet(init, mode)])
+
+
 BENCHMARKS = {
     # forbidden x >= 10.25  ->  -x <= -10.25
     "bouncing_ball": lambda: _ball([-1.0, 0, 0], -10.25, 0.05, 20.0),
     # forbidden v <= -4.5
     "bouncing_ball_fast": lambda: _ball([0, 1.0, 0], -4.5, 0.05, 20.0),
+    "spacecraft_sra01": lambda: _spacecraft(120.0, 120.0),
+    "spacecraft_sra02": lambda: _spacecraft(120.0, 125.0),
+    "spacecraft_sra03": lambda: _spacecraft(120.0, 145.0),
+    "spacecraft_sra04": lambda: _spacecraft(240.0, 240.0),
+    "building_bldf01": _building,
+    "room_heating": _room_heating,
+    "stiff2d": _stiff2d,
 }
 
 

@@ -2,7 +2,8 @@
 
 Usage (from the repository root)::
 
-    .venv/bin/python benchmarks/reach/run.py [--only NAME] [--hylaa-python PATH]
+    .venv/bin/python benchmarks/reach/run.py [--only NAME] [--timeout SECONDS]
+                                             [--hylaa-python PATH] [--verbose]
 
 Each benchmark is a SpaceEx model and ``.cfg`` in ``models/spaceex/`` (written from the
 published definition; source and published verdict in the file header). It is loaded
@@ -11,14 +12,22 @@ with :func:`hybridlab.io.load_spaceex` and checked with
 using the ``.cfg``'s forbidden set, initial set, horizon, sampling time (as the reach
 step) and iteration bound (as ``max_jumps``). With ``--hylaa-python`` the Hylaa version
 of the same benchmark (``hylaa_models.py``) runs in a subprocess with that interpreter,
-a separate venv: Hylaa is never a dependency of hybridlab. Nothing here is a test.
+a separate venv: Hylaa is never a dependency of hybridlab. With ``--timeout`` every
+hybridlab instance runs in a process of its own (this script with ``--worker NAME``), killed
+and reported ``TIMEOUT`` after that many seconds; the same limit then applies to Hylaa.
+The "tightest bound" column is the verdict's ``margin``: SAFE, the smallest proven margin;
+UNKNOWN, the lowest lower bound of a spec over the flowpipes; UNSAFE, the most negative
+margin of the counterexample. Nothing here is a test.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
+import os
 import platform
+import signal
 import subprocess
 import sys
 import time
@@ -50,10 +59,35 @@ BENCHMARKS = (
               "SpaceEx example bball; closed form", True),
     Benchmark("vanderpol", "vanderpol.xml", "vanderpol.cfg", "SAFE",
               "ARCH-COMP NLN VDP, mu = 1", False),
+    Benchmark("spacecraft_sra01", "spacecraft.xml", "spacecraft_sra01.cfg", "SAFE",
+              "ARCH-COMP AFF SRA01 (abort at t = 120); CORA rendezvous_SRA01.m", True),
+    Benchmark("spacecraft_sra02", "spacecraft.xml", "spacecraft_sra02.cfg", "SAFE",
+              "ARCH-COMP AFF SRA02 (abort in [120, 125]); CORA rendezvous_SRA02.m", True),
+    Benchmark("spacecraft_sra03", "spacecraft.xml", "spacecraft_sra03.cfg", "SAFE",
+              "ARCH-COMP AFF SRA03 (abort in [120, 145]); CORA rendezvous_SRA03.m", True),
+    Benchmark("spacecraft_sra04", "spacecraft.xml", "spacecraft_sra04.cfg", "SAFE",
+              "ARCH-COMP AFF SRA04 (abort at t = 240); CORA rendezvous_SRA04.m", True),
+    Benchmark("building_bldf01", "building.xml", "building.cfg", "SAFE",
+              "ARCH-COMP AFF BLDF01 / BDS01; ARCH-COMP17 SpaceEx BLDF01.xml", True),
+    Benchmark("room_heating", "room_heating.xml", "room_heating.cfg", "SAFE",
+              "defined here after Fehnker and Ivancic (HSCC 2004), CORA roomHeating.m; "
+              "checked by simulation only", True),
+    Benchmark("stiff2d", "stiff2d.xml", "stiff2d.cfg", "SAFE",
+              "defined here: eigenvalues -1 and -2000; closed form", True),
 )
+BY_NAME = {b.name: b for b in BENCHMARKS}
 
 
-def run_hybridlab(b: Benchmark) -> tuple[str, float, str]:
+@dataclass(frozen=True)
+class Outcome:
+    verdict: str  # SAFE, UNSAFE, UNKNOWN, ERROR, TIMEOUT, n/a
+    seconds: float | None
+    reason: str
+    margin: float | None = None  # the verdict's tightest bound, when it has one
+
+
+def run_hybridlab(b: Benchmark) -> Outcome:
+    """Load and check one benchmark in this process."""
     start = time.perf_counter()
     try:
         problem = load_spaceex(ROOT / "models" / "spaceex" / b.xml,
@@ -61,21 +95,74 @@ def run_hybridlab(b: Benchmark) -> tuple[str, float, str]:
         verdict = check_safety(problem.model, safe=problem.safe_specs(),
                                **problem.reach_kwargs())
     except Exception as exc:  # a benchmark report, not a library: show what failed
-        return "ERROR", time.perf_counter() - start, f"{type(exc).__name__}: {exc}"
-    return verdict.status.name, time.perf_counter() - start, verdict.reason
+        return Outcome("ERROR", time.perf_counter() - start, f"{type(exc).__name__}: {exc}")
+    margin = getattr(verdict, "margin", None)
+    return Outcome(verdict.status.name, time.perf_counter() - start, verdict.reason,
+                   None if margin is None or not math.isfinite(margin) else float(margin))
 
 
-def run_hylaa(b: Benchmark, python: str | None) -> tuple[str, float | None, str]:
+def run_hybridlab_isolated(b: Benchmark, timeout: float) -> Outcome:
+    """Check one benchmark in a process of its own; TIMEOUT after ``timeout`` seconds.
+
+    The child is this script with ``--worker NAME`` (one JSON line back). It runs in a new
+    session so that the whole process group, with any worker processes it started, is
+    killed on timeout.
+    """
+    start = time.perf_counter()
+    proc = subprocess.Popen([sys.executable, str(Path(__file__).resolve()), "--worker", b.name],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    try:
+        out, err = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        _kill_group(proc)
+        proc.communicate()
+        return Outcome("TIMEOUT", time.perf_counter() - start,
+                       f"no verdict within {timeout:g} s (process killed)")
+    lines = out.strip().splitlines()
+    if proc.returncode != 0 or not lines:
+        tail = (err.strip().splitlines() or [f"exit status {proc.returncode}"])[-1]
+        return Outcome("ERROR", time.perf_counter() - start, tail)
+    data = json.loads(lines[-1])
+    return Outcome(data["verdict"], data["time_s"], data["reason"], data["margin"])
+
+
+def _kill_group(proc: subprocess.Popen) -> None:
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):
+        proc.kill()
+
+
+def _worker(name: str) -> int:
+    o = run_hybridlab(BY_NAME[name])
+    print(json.dumps({"verdict": o.verdict, "time_s": o.seconds, "reason": o.reason,
+                      "margin": o.margin}))
+    return 0
+
+
+def run_hylaa(b: Benchmark, python: str | None, timeout: float | None) -> Outcome:
     if not b.hylaa:
-        return "n/a", None, "Hylaa handles affine dynamics only"
+        return Outcome("n/a", None, "Hylaa handles affine dynamics only")
     if python is None:
-        return "n/a", None, "no --hylaa-python given"
-    proc = subprocess.run([python, str(HERE / "hylaa_models.py"), b.name], capture_output=True,
-                          text=True, timeout=1800, check=False)
+        return Outcome("n/a", None, "no --hylaa-python given")
+    proc = subprocess.Popen([python, str(HERE / "hylaa_models.py"), b.name],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    try:
+        out, err = proc.communicate(timeout=1800 if timeout is None else timeout)
+    except subprocess.TimeoutExpired:
+        _kill_group(proc)
+        proc.communicate()
+        return Outcome("TIMEOUT", None, "Hylaa gave no verdict in time (process killed)")
     if proc.returncode != 0:
-        return "ERROR", None, (proc.stderr.strip().splitlines() or ["?"])[-1]
-    data = json.loads(proc.stdout.strip().splitlines()[-1])
-    return data["verdict"], float(data["time_s"]), ""
+        return Outcome("ERROR", None, (err.strip().splitlines() or ["?"])[-1])
+    data = json.loads(out.strip().splitlines()[-1])
+    return Outcome(data["verdict"], float(data["time_s"]), "")
+
+
+def _bound(margin: float | None) -> str:
+    return "-" if margin is None else f"{margin:.4g}"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -83,22 +170,35 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", action="append", choices=[b.name for b in BENCHMARKS])
     parser.add_argument("--hylaa-python", help="the python of a venv with hylaa installed")
     parser.add_argument("--verbose", action="store_true", help="print each verdict's reason")
+    parser.add_argument("--timeout", type=float, metavar="SECONDS",
+                        help="run each hybridlab instance in a process of its own and report "
+                             "TIMEOUT after this many seconds (also bounds Hylaa)")
+    parser.add_argument("--worker", choices=[b.name for b in BENCHMARKS],
+                        help=argparse.SUPPRESS)  # internal: the child of --timeout
     args = parser.parse_args(argv)
+    if args.worker:
+        return _worker(args.worker)
+    if args.timeout is not None and not (math.isfinite(args.timeout) and args.timeout > 0):
+        parser.error("--timeout must be a positive number of seconds")
     print(f"reach benchmarks, {time.strftime('%Y-%m-%d')}, {platform.processor() or '?'}, "
-          f"Python {platform.python_version()}")
-    header = ("benchmark", "published", "hybridlab", "time [s]", "Hylaa", "time [s]")
+          f"Python {platform.python_version()}"
+          + ("" if args.timeout is None else f", timeout {args.timeout:g} s per instance"))
+    header = ("benchmark", "published", "hybridlab", "time [s]", "tightest bound", "Hylaa",
+              "time [s]")
     rows = []
     for b in BENCHMARKS:
         if args.only and b.name not in args.only:
             continue
-        verdict, seconds, reason = run_hybridlab(b)
-        hv, hs, hreason = run_hylaa(b, args.hylaa_python)
-        rows.append((b.name, b.published, verdict, f"{seconds:.2f}", hv,
-                     "-" if hs is None else f"{hs:.2f}"))
+        o = (run_hybridlab(b) if args.timeout is None
+             else run_hybridlab_isolated(b, args.timeout))
+        h = run_hylaa(b, args.hylaa_python, args.timeout)
+        rows.append((b.name, b.published, o.verdict,
+                     "-" if o.seconds is None else f"{o.seconds:.2f}", _bound(o.margin),
+                     h.verdict, "-" if h.seconds is None else f"{h.seconds:.2f}"))
         if args.verbose:
-            print(f"{b.name}: hybridlab: {reason}")
-            if hreason:
-                print(f"{b.name}: Hylaa: {hreason}")
+            print(f"{b.name}: hybridlab: {o.reason}", flush=True)
+            if h.reason:
+                print(f"{b.name}: Hylaa: {h.reason}", flush=True)
     widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
     line = "| " + " | ".join(h.ljust(w) for h, w in zip(header, widths, strict=True)) + " |"
     print(line)
