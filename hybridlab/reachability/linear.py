@@ -232,7 +232,12 @@ class Propagator:
         s = basis.blocks[0]
         offset[s], segment_s, rad[s] = self._taylor_correction(y_c, y_gen, s)
         shared[s] = True
+        own = []  # turning pairs: their own parameter, their difference kept as vectors
         for b, blk in zip(basis.blocks[1:], self.fast, strict=True):
+            if blk.monotone and blk.spin:
+                own.append(b)
+                rad[b] = blk.spin * float(np.max(np.abs(y_c[b]) + y_gen[b]))
+                continue
             if blk.monotone:
                 rad[b] = np.abs(dy_c[b]) + np.sum(np.abs(dy_G[b]), axis=1)
                 continue
@@ -243,15 +248,17 @@ class Propagator:
                       + product_error(np.abs(blk.F_mid), np.abs(v)))
         rad = up(rad + dy_err + self.coupling * float(np.max(np.abs(y_c) + y_gen)))
         S = basis.S
-        S_shared = S[:, shared]
         segment = np.zeros_like(y_c)
         segment[s] = segment_s
-        gens = np.hstack([half_sum, (S_shared @ dy_c[shared])[:, None], S_shared @ dy_G[shared],
-                          (S @ segment)[:, None], S * rad[None, :]])
-        err = (product_error(np.abs(S), np.abs(offset) + np.abs(segment) + rad)
-               + product_error(np.abs(S_shared), up(np.abs(dy_c[shared])
-                                                    + np.sum(np.abs(dy_G[shared]), axis=1))))
-        return center + S @ offset, gens, up(err)
+        gens = [half_sum]
+        err = product_error(np.abs(S), np.abs(offset) + np.abs(segment) + rad)
+        for cols in [shared] + own:  # Girard's hull, one interpolation parameter per group
+            S_g = S[:, cols]
+            gens += [(S_g @ dy_c[cols])[:, None], S_g @ dy_G[cols]]
+            err = err + product_error(np.abs(S_g), up(np.abs(dy_c[cols])
+                                                      + np.sum(np.abs(dy_G[cols]), axis=1)))
+        gens += [(S @ segment)[:, None], S * rad[None, :]]
+        return center + S @ offset, np.hstack(gens), up(err)
 
     def _taylor_correction(self, y_c: np.ndarray, y_gen: np.ndarray, s: slice
                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -18,8 +18,10 @@ the step is split by time scale:
    error ``F_j(t) = e^{B_j t} - I - (t/r)(e^{B_j r} - I)`` over ``t`` in
    ``[0, r]`` and of ``int_0^r |e^{B_j s}| ds`` (the gain of a bounded input):
    in closed form for a real eigenvalue (``e^{lambda t}`` is convex, so
-   ``F_j`` lies in ``[F_j(t*), 0]`` with ``t*`` its stationary point), and by
-   subdividing the step into pieces with ``|B_j| h <= 1/4`` otherwise. Both
+   ``F_j`` lies in ``[F_j(t*), 0]`` with ``t*`` its stationary point; the
+   step itself interpolates it with its own parameter, exactly) and for a
+   complex pair that turns little in a step, and by subdividing the step into
+   pieces with ``|B_j| h <= 1/4`` otherwise. Both
    are ``O(1)``, whatever ``|lambda| r``: a fast decaying mode is covered by
    the hull of its step ends plus a box of its own size.
 4. The slow block keeps the Taylor correction (Althoff 2010), now with a small
@@ -40,7 +42,7 @@ Examples
 
 A badly scaled mode (large entries, slow eigenvalues) is balanced instead:
 
->>> scaled = block_basis(np.array([[0.0, 1e4, 0.0], [-1e-4, 0.0, 0.0], [0.0, 0.0, 0.0]]), 1.0)
+>>> scaled = block_basis(np.array([[0.0, 1e4, 0.0], [-1e-4, 0.0, 0.0], [0.0, 0.0, 0.0]]), 0.1)
 >>> np.diag(scaled.S).tolist(), len(scaled.blocks)
 ([8192.0, 1.0, 1.0], 1)
 """
@@ -58,13 +60,14 @@ from hybridlab.reachability.balls import enclosure, scalar_bounds, to_arb
 
 __all__ = ["FAST", "Basis", "FastBlock", "block_basis", "fast_block"]
 
-FAST = 1.0
+FAST = 0.25
 """An eigenvalue is fast for a step ``r`` when ``|lambda| r`` exceeds this."""
 
 _MAX_CONDITION = 1e8      # eigenvector bases worse than this keep the fast block whole
 _MAX_PIECES = 4096        # subdivision of a step for a non-scalar fast block
 _PIECE_NORM = 0.25        # |B_j| h per piece
 _MAX_BALANCE = 16         # balancing scales stay within 2**-16 .. 2**16
+_MAX_SPIN = 0.5           # a complex pair turning less than this per step is "monotone"
 
 
 @dataclass(frozen=True, eq=False)
@@ -103,9 +106,11 @@ class FastBlock:
 
     ``F(t)`` lies entrywise in ``F_mid +- F_rad``; ``gain`` bounds
     ``int_0^r |e^{B_j s}| ds`` entrywise; ``sup_norm`` bounds ``|e^{B_j t}|_inf``.
-    ``monotone``: a real ``1 x 1`` block, whose ``e^{lambda t} y`` runs
-    monotonically from ``y`` to ``e^{lambda r} y`` (no correction needed when it
-    is interpolated with its own parameter).
+    ``monotone``: ``e^{B_j t} y`` is the segment from ``y`` to ``e^{B_j r} y``,
+    interpolated with its own parameter, plus a box of ``spin |y|_inf``: a real
+    ``1 x 1`` block (``spin = 0``), or a complex pair ``[[a, b], [-b, a]]`` that
+    turns little in a step (``e^{at}`` is monotone; the rotation adds at most
+    ``sqrt(2) |b| r max(1, e^{ar})``).
     """
 
     F_mid: np.ndarray
@@ -113,6 +118,7 @@ class FastBlock:
     gain: np.ndarray
     sup_norm: float
     monotone: bool = False
+    spin: float = 0.0
 
 
 def _is_slow(r: float):  # noqa: ANN202 - scipy's sort callback
@@ -164,7 +170,14 @@ def _stiff_basis(Ah: np.ndarray, r: float) -> tuple[np.ndarray, list[int], int] 
     S = Q @ decouple @ basis
     if not np.all(np.isfinite(S)):
         return None
-    return S / np.max(np.abs(S), axis=0), fast_sizes, n_slow  # unit columns scale well
+    # unit columns scale well; the two columns of a complex pair share one scale, which
+    # keeps its block in the form [[a, b], [-b, a]]
+    scale = np.max(np.abs(S), axis=0)
+    start = n_slow
+    for size in fast_sizes:
+        scale[start:start + size] = np.max(scale[start:start + size])
+        start += size
+    return S / scale, fast_sizes, n_slow
 
 
 def _balance_slow(Ah: np.ndarray, S: np.ndarray, n_slow: int) -> np.ndarray | None:
@@ -206,9 +219,22 @@ def _certify(Ah: np.ndarray, S: np.ndarray, n_slow: int, fast_sizes: list[int]) 
         start += size
     B = np.zeros_like(B_mid)
     for b in blocks:
-        B[b, b] = B_mid[b, b]
+        B[b, b] = _rotation_form(B_mid[b, b])
     eps = float(np.max(_up_sum(np.abs(B_mid - B) + B_rad)))
     return Basis(S=S, inv_mid=inv_mid, inv_rad=inv_rad, blocks=blocks, B=B, eps=eps)
+
+
+def _rotation_form(Bj: np.ndarray) -> np.ndarray:
+    """A ``2 x 2`` block of a complex pair as exactly ``[[a, b], [-b, a]]`` (the difference
+    is rounding level and goes into the basis's ``eps``); other blocks unchanged."""
+    if Bj.shape != (2, 2) or Bj[0, 1] * Bj[1, 0] >= 0:
+        return Bj
+    a = 0.5 * (Bj[0, 0] + Bj[1, 1])
+    b = 0.5 * (Bj[0, 1] - Bj[1, 0])
+    scale = max(abs(a), abs(b))
+    if abs(Bj[0, 0] - Bj[1, 1]) > 1e-9 * scale or abs(Bj[0, 1] + Bj[1, 0]) > 1e-9 * scale:
+        return Bj
+    return np.array([[a, b], [-b, a]])
 
 
 def _up_sum(M: np.ndarray) -> np.ndarray:
@@ -287,6 +313,9 @@ def fast_block(Bj: np.ndarray, r: float) -> FastBlock:
     """
     if Bj.shape == (1, 1):
         return _scalar_block(float(Bj[0, 0]), r)
+    if Bj.shape == (2, 2) and Bj[0, 0] == Bj[1, 1] and Bj[0, 1] == -Bj[1, 0] \
+            and abs(Bj[0, 1]) * r <= _MAX_SPIN:
+        return _turning_block(float(Bj[0, 0]), float(Bj[0, 1]), r)
     return _subdivided_block(Bj, r)
 
 
@@ -305,6 +334,23 @@ def _scalar_block(lam: float, r: float) -> FastBlock:
     rad = math.nextafter(-0.5 * f_lo, math.inf)
     return FastBlock(F_mid=np.array([[mid]]), F_rad=np.array([[rad]]),
                      gain=np.array([[gain]]), sup_norm=max(1.0, phi_hi), monotone=True)
+
+
+def _turning_block(a: float, b: float, r: float) -> FastBlock:
+    """``[[a, b], [-b, a]]``: ``e^{Bt} = e^{at} R(bt)``. With ``theta`` chosen so that
+    ``e^{at} = (1 - theta) + theta e^{ar}``, the path differs from the segment point
+    ``(1 - theta) y + theta e^{Br} y`` by ``(1 - theta)(R(bt) - I) y + theta e^{ar}
+    (R(bt) - R(br)) y``, whose infinity norm is at most ``sqrt(2) |b| r max(1, e^{ar})
+    |y|_inf``; the input gain is ``int_0^r e^{as} ds`` in every entry."""
+    a_a, a_r = arb(a), arb(r)
+    growth = (a_a * a_r).exp()
+    _, growth_hi = scalar_bounds(growth)
+    _, spin = scalar_bounds(arb(2).sqrt() * abs(arb(b)) * a_r * max(1.0, growth_hi))
+    _, gain = scalar_bounds(((growth - 1) / a_a) if a != 0 else a_r)
+    return FastBlock(F_mid=np.zeros((2, 2)), F_rad=np.zeros((2, 2)),
+                     gain=np.full((2, 2), gain), sup_norm=math.nextafter(
+                         2.0 * max(1.0, growth_hi), math.inf),
+                     monotone=True, spin=spin)
 
 
 def _subdivided_block(Bj: np.ndarray, r: float) -> FastBlock:
