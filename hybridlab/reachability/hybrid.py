@@ -261,8 +261,8 @@ class _Analysis:
                 break
             t0 = start_lo
             t1 = (now + r) if exact_time else item.t_hi + rel + r
-            H = _within(H.reduce(self.options.order), mode.invariants)
-            P_next = _within(P_next.reduce(self.options.order), mode.invariants)
+            H = _within(stepper.reduce(H, self.options.order), mode.invariants)
+            P_next = _within(stepper.reduce(P_next, self.options.order), mode.invariants)
             if H is None:
                 break  # every trajectory has left the mode
             inv = mode.invariants.range(H)

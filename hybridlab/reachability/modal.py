@@ -58,12 +58,12 @@ from scipy import linalg
 
 from hybridlab.reachability.balls import enclosure, scalar_bounds, to_arb
 
-__all__ = ["FAST", "Basis", "FastBlock", "block_basis", "fast_block"]
+__all__ = ["FAST", "Basis", "FastBlock", "block_basis", "fast_block", "eigenbasis"]
 
 FAST = 0.25
 """An eigenvalue is fast for a step ``r`` when ``|lambda| r`` exceeds this."""
 
-_MAX_CONDITION = 1e8      # eigenvector bases worse than this keep the fast block whole
+_MAX_REDUCTION_CONDITION = 1e4  # reductions box in eigenvector bases better than this
 _MAX_PIECES = 4096        # subdivision of a step for a non-scalar fast block
 _PIECE_NORM = 0.25        # |B_j| h per piece
 _MAX_BALANCE = 16         # balancing scales stay within 2**-16 .. 2**16
@@ -237,11 +237,47 @@ def _rotation_form(Bj: np.ndarray) -> np.ndarray:
     return np.array([[a, b], [-b, a]])
 
 
+def eigenbasis(A: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """``(S, inv_mid, inv_rad)``: a real eigenvector basis of ``A`` (``2 x 2`` blocks for
+    complex pairs, the columns of a pair sharing one scale) with ``S^{-1}`` enclosed, or
+    ``None`` when ``A`` has no well-conditioned one (defective or nearly so).
+
+    In these coordinates a stable ``e^{A r}`` shrinks every real mode's box, which is
+    where reductions should box (:meth:`Zonotope.reduce`).
+
+    Examples
+    --------
+    >>> S, inv_mid, inv_rad = eigenbasis(np.array([[-1.0, 100.0], [0.0, -2.0]]))
+    >>> bool(np.allclose(inv_mid @ S, np.eye(2)) and inv_rad.max() < 1e-12)
+    True
+    """
+    n = A.shape[0]
+    if n == 0:
+        return None
+    V, sizes = _real_eigenbasis(A, max_condition=_MAX_REDUCTION_CONDITION)
+    if sizes == [n] and n > 1:
+        return None  # no good basis: _real_eigenbasis fell back to the identity
+    scale = np.max(np.abs(V), axis=0)
+    start = 0
+    for size in sizes:
+        scale[start:start + size] = np.max(scale[start:start + size])
+        start += size
+    S = V / scale
+    try:
+        inv_mid, inv_rad = enclosure(to_arb(S).inv())
+    except (ZeroDivisionError, ValueError):
+        return None
+    if not np.all(np.isfinite(inv_rad)):
+        return None
+    return S, inv_mid, inv_rad
+
+
 def _up_sum(M: np.ndarray) -> np.ndarray:
     return np.nextafter(np.sum(M, axis=1) * (1 + 2.0 ** -40), np.inf)
 
 
-def _real_eigenbasis(T: np.ndarray) -> tuple[np.ndarray, list[int]]:
+def _real_eigenbasis(T: np.ndarray, max_condition: float = 1e8
+                     ) -> tuple[np.ndarray, list[int]]:
     """Real eigenvectors of ``T`` (``2 x 2`` blocks for complex pairs) and the block sizes.
 
     Falls back to the identity (one block) when the basis is ill-conditioned,
@@ -269,7 +305,7 @@ def _real_eigenbasis(T: np.ndarray) -> tuple[np.ndarray, list[int]]:
             size = 2 if w[i].imag != 0 else 1
             sizes.append(size)
             i += size
-    if not np.all(np.isfinite(Vr)) or np.linalg.cond(Vr) > _MAX_CONDITION:
+    if not np.all(np.isfinite(Vr)) or np.linalg.cond(Vr) > max_condition:
         return whole
     return Vr, sizes
 

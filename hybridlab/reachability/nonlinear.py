@@ -37,6 +37,7 @@ from __future__ import annotations
 import numpy as np
 
 from hybridlab.reachability.linear import Propagator, StepError, affine_step
+from hybridlab.reachability.modal import eigenbasis
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.sets import Zonotope
 from hybridlab.reachability.system import ModeSystem, System
@@ -72,6 +73,16 @@ class FlowStepper:
         self._props: dict[tuple[bytes, bytes, float], Propagator] = {}
         self._remainder = np.zeros(len(self.mode.zsyms))
         self._switch_lie = None
+        self._affine_A: np.ndarray | None = None
+        self._reduction_basis: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def reduce(self, Z: Zonotope, order: float) -> Zonotope:
+        """``Z`` reduced to ``order``; for an affine mode, boxed in its eigenvector basis
+        (where the flow contracts, so a box mapped and boxed again does not grow)."""
+        if self._reduction_basis is None and self._affine_A is not None:
+            self._reduction_basis = eigenbasis(self._affine_A)
+            self._affine_A = None  # computed (or found missing) once
+        return Z.reduce(order, self._reduction_basis)
 
     def reset(self) -> None:
         """Forget the remainder guess (a new flowpipe starts)."""
@@ -177,6 +188,8 @@ class FlowStepper:
             raise StepError(f"mode {m.name!r}: the flow or its Jacobian is not finite at {at}")
         prop = self._propagator(A, c, r)
         B_in = B[:, u_rad > 0] * u_rad[u_rad > 0]
+        if m.affine and self._reduction_basis is None and self._affine_A is None:
+            self._affine_A = A
         if m.affine:
             W = Zonotope(np.zeros(nz), B_in) if B_in.size else None
             return affine_step(P, prop, W, self.options.bloat)

@@ -225,11 +225,22 @@ class Zonotope:
             return Zonotope(self.center, np.hstack([G[:, keep], np.diag(small)])).compact()
         return Zonotope(self.center, G[:, keep])
 
-    def reduce(self, order: float) -> Zonotope:
+    def reduce(self, order: float, basis: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+               ) -> Zonotope:
         """Girard's box method: at most ``order * n`` generators, over-approximating.
 
         The generators with the smallest ``|g|_1 - |g|_inf`` (the ones a box
-        encloses with the least loss) are replaced by their interval hull.
+        encloses with the least loss) are replaced by their interval hull, or, with
+        ``basis = (S, inv_mid, inv_rad)`` (``S^{-1}`` within ``inv_mid +- inv_rad``),
+        by the box in the coordinates ``S^{-1} x``: ``{S y : |y| <= rho}``. A basis in
+        which the flow contracts (a mode's eigenvectors) stops the box from growing
+        when it is mapped and boxed again at every step (the wrapping effect).
+
+        Examples
+        --------
+        >>> Z = Zonotope([0.0, 0.0], [[1.0, 1.0, 0.5], [1.0, -1.0, 0.5]])
+        >>> Z.reduce(1).generators.shape
+        (2, 2)
         """
         n = self.dim
         G = self.generators[:, np.any(self.generators != 0, axis=0)]
@@ -240,8 +251,18 @@ class Zonotope:
         ranked = np.argsort(score)
         n_box = G.shape[1] - limit + n
         boxed, kept = ranked[:n_box], ranked[n_box:]
-        radius = up(np.sum(np.abs(G[:, boxed]), axis=1), boxed.size)
-        return Zonotope(self.center, np.hstack([G[:, kept], np.diag(radius)])).compact()
+        if basis is None:
+            radius = up(np.sum(np.abs(G[:, boxed]), axis=1), boxed.size)
+            return Zonotope(self.center, np.hstack([G[:, kept], np.diag(radius)])).compact()
+        S, inv_mid, inv_rad = basis
+        Gb = G[:, boxed]
+        abs_b = np.abs(Gb)
+        Y = inv_mid @ Gb
+        rho = up(np.sum(np.abs(Y), axis=1) + inv_rad @ np.sum(abs_b, axis=1)
+                 + product_error(np.abs(inv_mid), np.sum(abs_b, axis=1)), boxed.size)
+        box_gens = S * rho[None, :]
+        err = product_error(np.abs(S), rho)  # the columns' scaling
+        return Zonotope(self.center, np.hstack([G[:, kept], box_gens, np.diag(err)])).compact()
 
     def halfspaces(self) -> tuple[np.ndarray, np.ndarray] | None:
         """An H-representation ``A x <= b`` for full-dimensional zonotopes with n <= 3.

@@ -169,9 +169,12 @@ class ModeSystem:
             return None
         return IntervalFunction(entries, self.wsyms)
 
-    @property
+    @cached_property
     def affine(self) -> bool:
-        return self.hessian is None
+        """Whether the flow is affine in ``w``: every Jacobian entry is free of ``w``
+        (a cheaper test than the Hessian, which large affine modes never need)."""
+        w = set(self.wsyms)
+        return not any(e.free_symbols & w for e in self._jac)
 
     def lie(self, rows: Rows) -> IntervalFunction:
         """Interval enclosure of the time derivatives of ``rows`` along this flow."""
