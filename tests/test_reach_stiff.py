@@ -184,3 +184,32 @@ def test_a_stiff_system_is_enclosed_within_five_times_its_simulated_range(tmp_pa
         assert b_lo <= lo[i] + 1e-9 and b_hi >= hi[i] - 1e-9  # sound
         assert (b_hi - b_lo) <= 5 * (hi[i] - lo[i])  # and tight
         assert math.isfinite(b_lo) and math.isfinite(b_hi)
+
+
+def test_a_time_budget_ends_in_an_incomplete_result_with_the_sets_so_far():
+    result = hybridlab.reach("models/thermostat.toml", initial={"T": (19.0, 21.0)},
+                             t_end=500.0, step=0.01, time_budget=0.3, progress=False)
+    assert not result.complete
+    assert any("time budget of 0.3 s ran out" in r for r in result.incomplete_reasons)
+    assert result.sets and result.bounds["T"][0] <= 19.0
+
+
+def test_the_cli_takes_the_expert_knobs_and_the_budget(capsys):
+    from hybridlab.cli import main
+    code = main(["reach", "models/thermostat.toml", "--init", "T=19:21", "--t-end", "400",
+                 "--safe", "T <= 30", "--step", "0.01", "--order", "5", "--clustering", "box",
+                 "--intersection", "lp", "--max-sets", "100000", "--time-budget", "0.3",
+                 "--samples", "4"])
+    out = capsys.readouterr().out
+    assert code == 3 and "time budget of 0.3 s ran out" in out
+
+
+@pytest.mark.parametrize("flag, value", [("--step", "-1"), ("--time-budget", "inf"),
+                                         ("--order", "nan"), ("--clustering", "blob")])
+def test_bad_knobs_get_one_line(flag, value, capsys):
+    from hybridlab.cli import main
+    code = main(["reach", "models/thermostat.toml", "--init", "T=19:21", "--t-end", "4",
+                 "--safe", "T <= 30", flag, value])
+    err = capsys.readouterr().err
+    assert code == 2 and err.startswith("hybridlab: error: ") and err.count("\n") == 1
+    assert flag in err

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time as _time
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -222,6 +223,8 @@ def reach(
     opts = (options or ReachOptions()).updated(**option_overrides)
     if opts.step is None:
         opts = opts.updated(step=(t_end - t0) / 400.0)
+    if opts.time_budget is not None and opts.deadline is None:
+        opts = opts.updated(deadline=_time.time() + float(opts.time_budget))
     if opts.split == 1:
         return run_analysis(system, opts, mode, P0, t0, t_end, p)
     pieces = _split(P0, opts.split)

@@ -105,8 +105,10 @@ def _run(args: argparse.Namespace) -> int:
         raise ValueError(f"--max-jumps must be >= 0 (got {args.max_jumps})")
     model = load_model(args.model)
     overrides = {} if args.max_jumps is None else {"max_jumps": args.max_jumps}
-    if args.split is not None:
-        overrides["split"] = args.split
+    for name in ("split", "step", "order", "clustering", "intersection", "max_sets",
+                 "time_budget"):
+        if getattr(args, name) is not None:
+            overrides[name] = getattr(args, name)
     falsify_options = FalsifyOptions(samples=args.samples, seed=args.seed)
     verdict = check(model, initial=initial, t_end=args.t_end,
                     safe=[*args.safe, *_avoid(args.avoid)], mode=args.mode,
@@ -127,6 +129,17 @@ def _non_negative(text: str) -> int:
         raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
     if value < 0:
         raise argparse.ArgumentTypeError(f"{text!r} is negative")
+    return value
+
+
+def _seconds(text: str) -> float:
+    """A positive finite number (a time or an order)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a positive finite number")
     return value
 
 
@@ -157,6 +170,19 @@ def add_reach_parser(sub: argparse._SubParsersAction) -> argparse.ArgumentParser
     p.add_argument("--max-jumps", type=int, dest="max_jumps")
     p.add_argument("--split", type=_positive, metavar="K",
                    help="analyse K pieces along each uncertain direction of the initial set")
+    p.add_argument("--time-budget", type=_seconds, dest="time_budget", metavar="SECONDS",
+                   help="stop the reachability analysis after this long: UNKNOWN with the "
+                        "tightest bound so far")
+    p.add_argument("--step", type=_seconds, metavar="DT",
+                   help="flowpipe time step (default: the horizon / 400)")
+    p.add_argument("--order", type=_seconds, metavar="K",
+                   help="zonotope order kept after each step (default 20)")
+    p.add_argument("--clustering", choices=("box", "none"),
+                   help="join the step sets that hit a guard into one box (default) or not")
+    p.add_argument("--intersection", choices=("lp", "box"),
+                   help="cut sets to a guard by LP (default) or by axis-aligned rows only")
+    p.add_argument("--max-sets", type=_positive, dest="max_sets", metavar="N",
+                   help="budget of flowpipe sets (default 200000)")
     p.add_argument("--workers", type=_positive, default=1, metavar="N",
                    help="processes analysing the --split pieces (default 1: serially)")
     p.add_argument("--scenario")

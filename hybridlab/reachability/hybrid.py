@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import heapq
 import math
+import sys
 import time as _time
 from dataclasses import dataclass, replace
 
@@ -132,6 +133,9 @@ class _Analysis:
         self.t_end = t_end
         self.step = float(options.step)
         self.compiled = system.compiled
+        self.started = _time.time()
+        self.shown = 0.0  # when progress was last shown (0: never)
+        self.progress_tty = sys.stderr.isatty()
         self.steppers: dict[str, FlowStepper] = {}
         self.records: list[tuple[int, ReachSet]] = []
         self.reasons: list[str] = []
@@ -202,7 +206,26 @@ class _Analysis:
                       _context=self.context, _box=box[:self.n])
         self.records.append((item.id, rs))
         if len(self.records) > self.options.max_sets:
-            raise _Budget()
+            raise _Budget(f"max_sets={self.options.max_sets} flowpipe sets computed; the "
+                          f"analysis stopped early (raise max_sets or the step)")
+        if len(self.records) % 16 == 0:
+            self._watch(item.mode, t1)
+
+    def _watch(self, mode: str, t: float) -> None:
+        """The time budget, and progress on a terminal for runs longer than 3 s."""
+        now = _time.time()
+        deadline = self.options.deadline
+        if deadline is not None and now > deadline:
+            raise _Budget(f"the time budget of {self.options.time_budget:g} s ran out at "
+                          f"t = {t:.6g} in mode {mode!r}; the sets so far are kept")
+        show = self.options.progress
+        if show is None:
+            show = self.progress_tty
+        if show and now - self.started > 3.0 and now - self.shown >= 1.0:
+            self.shown = now
+            print(f"\rreach: t = {t:.6g} of {self.t_end:g} in mode {mode!r}, "
+                  f"{len(self.records)} sets, {len(self.queue)} waiting, "
+                  f"{now - self.started:.0f} s ", end="", file=sys.stderr, flush=True)
 
     # ----- one item -----------------------------------------------------------------------
     def flow(self, item: Item) -> None:
@@ -490,7 +513,7 @@ class _Analysis:
             t_span=(self.t_start, self.t_end), options=self.options)
 
 
-class _Budget(Exception):
+class _Budget(Exception):  # noqa: N818 - a signal, not an error
     pass
 
 
@@ -502,7 +525,8 @@ def run_analysis(system: System, options: ReachOptions, mode: str, P0: Zonotope,
     analysis.push(None, mode, P0, t_start, t_start, 0)
     try:
         analysis.run()
-    except _Budget:
-        analysis._reason(f"max_sets={options.max_sets} flowpipe sets computed; the analysis "
-                         f"stopped early (raise max_sets or the step)")
+    except _Budget as exc:
+        analysis._reason(str(exc))
+    if analysis.shown:
+        print(file=sys.stderr)  # end the progress line
     return analysis.finish(started)

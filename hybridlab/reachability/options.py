@@ -55,6 +55,18 @@ class ReachOptions:
     bloat : float
         Extra relative enlargement of every step's sets, on top of the bounds
         of the floating-point rounding (which are always added). 0 by default.
+    time_budget : float or None
+        Wall-clock seconds for the whole analysis (all pieces); when they run
+        out the analysis stops, incomplete, with the reason and the sets so far
+        (so a verdict is UNKNOWN with the tightest bound reached). ``None``: no
+        limit beyond ``max_sets``.
+    progress : bool or None
+        Show progress on standard error once a run takes more than 3 seconds;
+        ``None``: when standard error is a terminal.
+    deadline : float or None
+        The absolute ``time.time()`` at which the analysis stops; set by
+        :func:`hybridlab.reach` from ``time_budget`` (pieces on other processes
+        share it).
     split : int
         Split the initial set into this many pieces along each of its
         generators (each uncertain initial state or parameter) and analyse
@@ -78,6 +90,9 @@ class ReachOptions:
     fixpoint: bool = True
     bloat: float = 0.0
     split: int = 1
+    time_budget: float | None = None
+    progress: bool | None = None
+    deadline: float | None = None
 
     def __post_init__(self) -> None:
         if self.step is not None and not (float(self.step) > 0 and float(self.step) < 1e300):
@@ -102,6 +117,9 @@ class ReachOptions:
             raise ValueError(f"split must be a positive integer (got {self.split!r})")
         if not 0 <= self.bloat < 1e-3:
             raise ValueError(f"bloat must be in [0, 1e-3) (got {self.bloat!r})")
+        if self.time_budget is not None and not (0 < float(self.time_budget) < 1e300):
+            raise ValueError(f"time_budget must be a positive number of seconds "
+                             f"(got {self.time_budget!r})")
 
     def updated(self, **changes: Any) -> ReachOptions:
         """A copy with ``changes`` applied (unknown names are a ``TypeError``)."""
