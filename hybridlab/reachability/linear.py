@@ -218,12 +218,12 @@ class Propagator:
         # interpolation parameter t / r (with their corrections); a real fast mode
         # e^{lam t} y moves monotonically from y to e^{lam r} y, so it takes its own
         # parameter and needs no correction (its difference generators are boxed)
-        inv, inv_abs = basis.inv_mid, np.abs(basis.inv_mid)
-        y_c = inv @ ch
-        y_gen = up(np.sum(np.abs(inv @ Gh), axis=1)
+        inv_abs = np.abs(basis.inv_mid)
+        y_c = basis.to_modal(ch)
+        y_gen = up(np.sum(np.abs(basis.to_modal(Gh)), axis=1)
                    + product_error(inv_abs, up(np.sum(np.abs(Gh), axis=1)))
                    + basis.inv_rad @ absP + product_error(inv_abs, absP))
-        dy_c, dy_G = inv @ dc, inv @ dG
+        dy_c, dy_G = basis.to_modal(dc), basis.to_modal(dG)
         d_abs = up(np.abs(dc) + np.sum(np.abs(dG), axis=1))
         dy_err = up(basis.inv_rad @ d_abs + product_error(inv_abs, d_abs))
         offset = np.zeros_like(y_c)
@@ -254,11 +254,12 @@ class Propagator:
         err = product_error(np.abs(S), np.abs(offset) + np.abs(segment) + rad)
         for cols in [shared] + own:  # Girard's hull, one interpolation parameter per group
             S_g = S[:, cols]
-            gens += [(S_g @ dy_c[cols])[:, None], S_g @ dy_G[cols]]
+            gens += [basis.from_modal(dy_c[cols], cols)[:, None],
+                     basis.from_modal(dy_G[cols], cols)]
             err = err + product_error(np.abs(S_g), up(np.abs(dy_c[cols])
                                                       + np.sum(np.abs(dy_G[cols]), axis=1)))
-        gens += [(S @ segment)[:, None], S * rad[None, :]]
-        return center + S @ offset, np.hstack(gens), up(err)
+        gens += [basis.from_modal(segment)[:, None], S * rad[None, :]]
+        return center + basis.from_modal(offset), np.hstack(gens), up(err)
 
     def _taylor_correction(self, y_c: np.ndarray, y_gen: np.ndarray, s: slice
                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -99,6 +99,29 @@ class Basis:
     def n_slow(self) -> int:
         return self.blocks[0].stop
 
+    @property
+    def scaling(self) -> np.ndarray | None:
+        """The diagonal of ``S`` when ``S`` is diagonal (a balancing), else ``None``."""
+        d = np.diag(self.S)
+        return d if np.count_nonzero(self.S) == np.count_nonzero(d) else None
+
+    def to_modal(self, X: np.ndarray) -> np.ndarray:
+        """``inv_mid @ X`` (a row scaling when ``S`` is diagonal)."""
+        d = self.scaling
+        if d is None:
+            return self.inv_mid @ X
+        inv = np.diag(self.inv_mid)
+        return inv[:, None] * X if X.ndim == 2 else inv * X
+
+    def from_modal(self, X: np.ndarray, cols: np.ndarray | slice | None = None) -> np.ndarray:
+        """``S[:, cols] @ X`` (a row scaling when ``S`` is diagonal and ``cols`` is all)."""
+        d = self.scaling
+        if cols is None or (isinstance(cols, np.ndarray) and cols.all()):
+            if d is not None:
+                return d[:, None] * X if X.ndim == 2 else d * X
+            return self.S @ X
+        return self.S[:, cols] @ X
+
 
 @dataclass(frozen=True, eq=False)
 class FastBlock:
