@@ -213,3 +213,34 @@ def test_bad_knobs_get_one_line(flag, value, capsys):
     err = capsys.readouterr().err
     assert code == 2 and err.startswith("hybridlab: error: ") and err.count("\n") == 1
     assert flag in err
+
+
+def test_the_rendezvous_flowpipe_contains_sampled_runs_across_both_jumps(models_dir):
+    """ARCH SRA01 (stiff rendezvous controller, abort at t = 120) over its first 130 min:
+    simulations from the corners and random points of the initial box lie in the flowpipes
+    at 1001 instants each and on both sides of every jump."""
+    from hybridlab.io import load_spaceex
+    problem = load_spaceex(models_dir / "spaceex" / "spacecraft.xml",
+                           models_dir / "spaceex" / "spacecraft_sra01.cfg")
+    kw = problem.reach_kwargs()
+    kw.update(t_end=130.0, progress=False)
+    result = hybridlab.reach(problem.model, **kw)
+    assert result.complete and {"rendezvous", "aborting"} <= set(result.reachable_modes)
+    rng = np.random.default_rng(11)
+    starts = [(x, y) for x in (-925.0, -875.0) for y in (-425.0, -375.0)]
+    starts += [(float(rng.uniform(-925, -875)), float(rng.uniform(-425, -375)))
+               for _ in range(1)]
+    for x0, y0 in starts:
+        sim = hybridlab.simulate(problem.model, t_end=130.0, mode="approaching",
+                                 initial={"x": x0, "y": y0, "vx": 0.0, "vy": 0.0, "t_": 0.0},
+                                 rtol=1e-10, atol=1e-12)
+        assert sim.status.ok
+        grid = np.linspace(0.0, sim.final.t, 1001)
+        X = sim(grid).T
+        inside = result.covers(grid, X, [sim.mode_at(t) for t in grid], tol=1e-7)
+        assert inside.all(), (x0, y0, grid[~inside][:3])
+        assert len(sim.jumps) == 2
+        for ev in sim.jumps:
+            pre, post = np.array([list(ev.pre.values())]), np.array([list(ev.post.values())])
+            assert result.covers([ev.t], pre, [ev.source], tol=1e-7).all()
+            assert result.covers([ev.t], post, [ev.target], tol=1e-7).all()
