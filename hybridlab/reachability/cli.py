@@ -177,8 +177,9 @@ def add_reach_parser(sub: argparse._SubParsersAction) -> argparse.ArgumentParser
                    help="flowpipe time step (default: the horizon / 400)")
     p.add_argument("--order", type=_seconds, metavar="K",
                    help="zonotope order kept after each step (default 20)")
-    p.add_argument("--clustering", choices=("box", "none"),
-                   help="join the step sets that hit a guard into one box (default) or not")
+    p.add_argument("--clustering", choices=("auto", "box", "none"),
+                   help="how the step sets that hit a guard are joined (default auto: into "
+                        "compact groups; box: all in one; none: not at all)")
     p.add_argument("--intersection", choices=("lp", "box"),
                    help="cut sets to a guard by LP (default) or by axis-aligned rows only")
     p.add_argument("--max-sets", type=_positive, dest="max_sets", metavar="N",

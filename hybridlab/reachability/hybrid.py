@@ -124,6 +124,44 @@ def _clip_axis(box: np.ndarray, rows: Rows) -> np.ndarray | None:
     return box
 
 
+#: "auto" clustering: a run of guard hits is split where joining the next piece would make
+#: the group's interval hull wider than this many times its widest piece in some coordinate
+_GROUP_GROWTH = 2.0
+
+
+def _groups(pieces: list[tuple[np.ndarray, float, float]], clustering: str
+            ) -> list[list[tuple[np.ndarray, float, float]]]:
+    """The cut pieces (box, t0, t1) of one cluster, in groups that are joined into one box.
+
+    ``"box"``: one group; ``"none"``: one per piece; ``"auto"``: consecutive pieces, a new
+    group whenever the hull would grow past ``_GROUP_GROWTH`` times the widest piece in
+    some coordinate (a short run that stays compact is one box; a long sweep across the
+    guard becomes several, each tight).
+    """
+    if not pieces:
+        return []
+    if clustering == "box":
+        return [pieces]
+    if clustering == "none":
+        return [[p] for p in pieces]
+    groups = [[pieces[0]]]
+    lo, hi = pieces[0][0][:, 0].copy(), pieces[0][0][:, 1].copy()
+    widest = hi - lo
+    for piece in pieces[1:]:
+        box = piece[0]
+        new_lo, new_hi = np.minimum(lo, box[:, 0]), np.maximum(hi, box[:, 1])
+        new_widest = np.maximum(widest, box[:, 1] - box[:, 0])
+        scale = 1e-12 * (1.0 + np.abs(new_lo) + np.abs(new_hi))
+        if np.all(new_hi - new_lo <= _GROUP_GROWTH * new_widest + scale):
+            groups[-1].append(piece)
+            lo, hi, widest = new_lo, new_hi, new_widest
+        else:
+            groups.append([piece])
+            lo, hi = box[:, 0].copy(), box[:, 1].copy()
+            widest = hi - lo
+    return groups
+
+
 class _Analysis:
     def __init__(self, system: System, options: ReachOptions, t_start: float, t_end: float,
                  p: np.ndarray) -> None:
@@ -453,17 +491,15 @@ class _Analysis:
     def _jump(self, item: Item, tr, cluster: list[tuple[Zonotope, float, float]]) -> None:
         guard = self.system.guards[tr.index]
         invariant = self.system.modes[item.mode].invariants
-        groups = [cluster] if self.options.clustering == "box" else [[c] for c in cluster]
-        for group in groups:
-            boxes, t_lo, t_hi = [], math.inf, -math.inf
-            for H, t0, t1 in group:
-                piece = self._cut(H, guard, invariant)
-                if piece is None:
-                    continue
-                boxes.append(piece.bounds())
-                t_lo, t_hi = min(t_lo, t0), max(t_hi, t1)
-            if not boxes:
-                continue
+        pieces = []
+        for H, t0, t1 in cluster:
+            piece = self._cut(H, guard, invariant)
+            if piece is not None:
+                pieces.append((piece.bounds(), t0, t1))
+        for group in _groups(pieces, self.options.clustering):
+            boxes = [box for box, _, _ in group]
+            t_lo = min(t0 for _, t0, _ in group)
+            t_hi = max(t1 for _, _, t1 in group)
             stack = np.stack(boxes)
             box = np.column_stack([stack[:, :, 0].min(axis=0), stack[:, :, 1].max(axis=0)])
             pre = Box(box[:, 0], box[:, 1]).to_zonotope()

@@ -7,7 +7,7 @@ from typing import Any
 
 __all__ = ["ReachOptions"]
 
-_CLUSTERING = ("box", "none")
+_CLUSTERING = ("auto", "box", "none")
 
 
 @dataclass(frozen=True)
@@ -33,11 +33,14 @@ class ReachOptions:
     max_jumps : int
         Longest run of jumps followed; a branch cut here makes the result
         incomplete.
-    clustering : {"box", "none"}
-        ``"box"``: consecutive steps that hit the same guard are joined into
-        one post-jump set (their interval hull, after intersecting each with the
-        guard and the invariant). ``"none"``: one post-jump set per step that
-        hits the guard (tighter, more branches).
+    clustering : {"auto", "box", "none"}
+        How the step sets that hit a guard (each cut to the guard and the
+        invariant, as a box) are joined before the reset. ``"auto"``: consecutive
+        hits form one group while the group's interval hull stays within twice its
+        widest piece in every coordinate, so a short, compact run is one post-jump
+        set and a long sweep across the guard becomes several tight ones.
+        ``"box"``: the whole run in one box (fewest branches, loosest).
+        ``"none"``: one post-jump set per step (tightest, most branches).
     intersection : {"lp", "box"}
         How a set that hits a guard is cut down to the guard and invariant:
         ``"lp"``: exact interval hull of the zonotope intersected with the linear

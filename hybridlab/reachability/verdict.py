@@ -266,19 +266,29 @@ def check(
 
     from hybridlab.reachability import reach  # the flowpipes: a sibling module
 
-    try:
-        result = reach(compiled, initial=initial, t_end=t_end, mode=mode, scenario=scenario,
-                       params=params, inputs=inputs, options=options, executor=executor,
-                       **reach_overrides)
-    except (HybridlabError, ArithmeticError, NotImplementedError, RuntimeError) as exc:
-        text = " ".join(str(exc).split())
-        return Verdict(VerdictStatus.UNKNOWN, texts,
-                       f"reachability failed ({type(exc).__name__}: {text}); {evidence}",
-                       falsification=found, time_s=time.perf_counter() - started)
-    bounds = bound_specs(specs, result)
-    tightest = min(bounds, key=lambda b: b.lower)
-    margin = None if not math.isfinite(tightest.lower) else tightest.lower
-    proved = all(_proved(s, b.lower) for s, b in zip(specs, bounds, strict=True))
+    # refinement: where one box per run of guard hits proves too little, the same analysis
+    # with the hits grouped into compact clusters ("auto"), unless the user chose
+    chosen = "clustering" in reach_overrides or (
+        options is not None and getattr(options, "clustering", "box") != "box")
+    for stage in ({}, {"clustering": "auto"}):
+        try:
+            result = reach(compiled, initial=initial, t_end=t_end, mode=mode,
+                           scenario=scenario, params=params, inputs=inputs, options=options,
+                           executor=executor, **{**reach_overrides, **stage})
+        except (HybridlabError, ArithmeticError, NotImplementedError, RuntimeError) as exc:
+            text = " ".join(str(exc).split())
+            return Verdict(VerdictStatus.UNKNOWN, texts,
+                           f"reachability failed ({type(exc).__name__}: {text}); {evidence}",
+                           falsification=found, time_s=time.perf_counter() - started)
+        bounds = bound_specs(specs, result)
+        tightest = min(bounds, key=lambda b: b.lower)
+        margin = None if not math.isfinite(tightest.lower) else tightest.lower
+        proved = all(_proved(s, b.lower) for s, b in zip(specs, bounds, strict=True))
+        jumped = any(rs.jumps for rs in result.sets)
+        if proved or chosen or not jumped or not result.complete:
+            break
+    refined = (" (refined: the guard hits grouped into compact clusters, clustering='auto')"
+               if stage else "")
     elapsed = time.perf_counter() - started
     common = dict(margin=margin, where=tightest if tightest.mode else None, spec_bounds=bounds,
                   reach=result, falsification=found)
@@ -286,7 +296,8 @@ def check(
         return Verdict(VerdictStatus.SAFE, texts,
                        f"every spec holds on all {len(result.sets)} reach sets up to "
                        f"t_end={problem.t_end:g}; smallest proven margin "
-                       f"{_fmt(tightest.lower)} (spec {tightest.spec!r} {tightest.where()})",
+                       f"{_fmt(tightest.lower)} (spec {tightest.spec!r} {tightest.where()})"
+                       f"{refined}",
                        time_s=elapsed, **common)
     reasons = []
     if not result.complete:
@@ -298,6 +309,9 @@ def check(
                        f"{b.where()} (after {b.jumps} jump(s)) while no simulation violated "
                        f"it: the overlap may be spurious; tighten the reach (smaller time step, "
                        f"higher zonotope order, less clustering) or split the initial set")
+    if refined:
+        reasons.append("the guard hits were also grouped into compact clusters "
+                       "(clustering='auto') without proving more")
     return Verdict(VerdictStatus.UNKNOWN, texts, "; ".join(reasons) + f"; {evidence}",
                    time_s=elapsed, **common)
 
