@@ -171,9 +171,11 @@ class Propagator:
         if not np.all(np.isfinite(phi_rad)):
             raise StepError(f"e^(A r) overflows for the step {r:g}; lower `step`")
         failure = StepError("no basis encloses this step")
-        for basis in (block_basis(Ah, r), block_basis(Ah, r, stiff=False), None):
+        candidates = (lambda: block_basis(Ah, r), lambda: block_basis(Ah, r, stiff=False),
+                      lambda: None)
+        for candidate in candidates:  # built only when the one before fails
             try:
-                return Propagator._in_basis(A, Ah, phi, phi_rad, r, eta, basis)
+                return Propagator._in_basis(A, Ah, phi, phi_rad, r, eta, candidate())
             except StepError as exc:  # this basis's bounds are useless: try a plainer one
                 failure = exc
         raise failure
