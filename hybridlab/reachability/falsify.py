@@ -41,7 +41,7 @@ from hybridlab.symbolic.compile import CompiledModel
 from hybridlab.symbolic.functions import VectorFunction
 
 __all__ = ["Problem", "FalsifyOptions", "Counterexample", "SpecMargin", "Falsification",
-           "resolve_problem", "falsify", "trajectory_margin"]
+           "resolve_problem", "falsify", "FalsificationSearch", "trajectory_margin"]
 
 _EMPTY = np.empty(0)
 _INTERIOR = (0.25, 0.5, 0.75)  # extra dense points per integrator step
@@ -496,6 +496,119 @@ class _Found(Exception):
         self.evaluated = evaluated
 
 
+class FalsificationSearch:
+    """The falsification search in its two stages: sampling, then local search.
+
+    :func:`falsify` runs both. A caller that can prove safety in between (the
+    verdict runs the flowpipes after sampling) calls :meth:`local` only when the
+    proof fails, so a spec that is proved never pays for the local search.
+
+    Parameters
+    ----------
+    problem : Problem
+        From :func:`resolve_problem`.
+    specs : sequence of Spec
+    options : FalsifyOptions, optional
+
+    Examples
+    --------
+    >>> from hybridlab.reachability.spec import parse_spec
+    >>> pb = resolve_problem("models/bouncing_ball.toml", initial={"h": (5.0, 10.0)}, t_end=2.0)
+    >>> search = FalsificationSearch(pb, [parse_spec("h <= 10.5", pb.compiled)])
+    >>> found = search.sample()
+    >>> found.counterexample is None, found.runs
+    (True, 19)
+    >>> search.local().runs > found.runs
+    True
+    """
+
+    def __init__(self, problem: Problem, specs: Sequence[Spec],
+                 options: FalsifyOptions | None = None) -> None:
+        self.problem = problem
+        self.specs = tuple(specs)
+        self.options = options or FalsifyOptions()
+        self._fns = _Margins(problem.compiled, self.specs).fns
+        self._rng = np.random.default_rng(self.options.seed)
+        self._lowest = {s.text: math.inf for s in self.specs}
+        self._best_u: list[list[tuple[float, np.ndarray]]] = [[] for _ in self.specs]
+        self._runs = 0
+        self._incomplete = 0
+        self._time = 0.0
+        self._found: Falsification | None = None
+
+    def sample(self) -> Falsification:
+        """Simulate the centre, the corners and the Latin-hypercube samples."""
+        return self._timed(self._sample)
+
+    def local(self) -> Falsification:
+        """Minimise each spec's margin locally from its best samples (after :meth:`sample`)."""
+        return self._timed(self._local)
+
+    def _timed(self, stage) -> Falsification:  # noqa: ANN001 - one of the two stages
+        if self._found is not None and self._found.counterexample is not None:
+            return self._found
+        started = time.perf_counter()
+        cx = stage()
+        self._time += time.perf_counter() - started
+        self._found = Falsification(cx, dict(self._lowest), self._runs, self._incomplete,
+                                    self._time)
+        return self._found
+
+    def _sample(self) -> Counterexample | None:
+        for u in _sample_plan(self.problem.dims, self.options, self._rng):
+            evaluated = self._evaluate(u)
+            if evaluated is not None and any(m.violation_t is not None for m in evaluated[0]):
+                return self._counterexample(u, evaluated)
+        return None
+
+    def _local(self) -> Counterexample | None:
+        d = self.problem.dims
+        if not (d and self.options.local_evals):
+            return None
+        for i in range(len(self.specs)):
+            starts = sorted(self._best_u[i], key=lambda item: item[0])[:self.options.local_starts]
+            for _, u0 in starts:
+                found = _local_search(i, u0, d, self.options.local_evals, self._evaluate)
+                if found is not None:
+                    return self._counterexample(*found)
+        return None
+
+    def _evaluate(self, u: np.ndarray
+                  ) -> tuple[list[SpecMargin], SimulationResult, np.ndarray] | None:
+        point = self.problem.point(u)
+        if point is None:
+            return None
+        x0, p = point
+        result = self.problem.run(x0, p)
+        self._runs += 1
+        if not result.status.ok:
+            self._incomplete += 1
+        out = [trajectory_margin(result, s, fns, p)
+               for s, fns in zip(self.specs, self._fns, strict=True)]
+        for i, m in enumerate(out):
+            self._lowest[m.spec] = min(self._lowest[m.spec], m.margin)
+            if np.isfinite(m.margin):
+                self._best_u[i].append((m.margin, u))
+        return out, result, p
+
+    def _counterexample(self, u: np.ndarray, evaluated: Any) -> Counterexample:
+        out, _, p = evaluated
+        m = next(m for m in out if m.violation_t is not None)
+        problem = self.problem
+        names = problem.compiled.state_names
+        pnames = problem.compiled.parameter_names
+        x0, _ = problem.point(u)  # type: ignore[misc]
+        return Counterexample(
+            spec=m.spec, t=float(m.violation_t), mode=str(m.violation_mode),
+            state=dict(zip(names, map(float, m.violation_state), strict=True)),
+            margin=float(m.margin), t_worst=float(m.t),
+            initial=dict(zip(names, map(float, x0), strict=True)),
+            parameters=dict(zip(pnames, map(float, p), strict=True)),
+            inputs={k: float(p[pnames.index(k)]) for k in problem.input_box},
+            initial_mode=problem.mode, t_start=problem.t_start, t_end=problem.t_end,
+            options=problem.options, compiled=problem.compiled)
+
+
 def falsify(problem: Problem, specs: Sequence[Spec],
             options: FalsifyOptions | None = None) -> Falsification:
     """Search the uncertain initial set, parameters and inputs for a violation.
@@ -524,64 +637,9 @@ def falsify(problem: Problem, specs: Sequence[Spec],
     >>> bool(np.array_equal(cx.replay().y, cx.replay().y))
     True
     """
-    options = options or FalsifyOptions()
-    started = time.perf_counter()
-    margins_fn = _Margins(problem.compiled, specs)
-    rng = np.random.default_rng(options.seed)
-    d = problem.dims
-    lowest = {s.text: math.inf for s in specs}
-    best_u: list[list[tuple[float, np.ndarray]]] = [[] for _ in specs]
-    counters = {"runs": 0, "incomplete": 0}
-
-    def evaluate(u: np.ndarray) -> tuple[list[SpecMargin], SimulationResult, np.ndarray] | None:
-        point = problem.point(u)
-        if point is None:
-            return None
-        x0, p = point
-        result = problem.run(x0, p)
-        counters["runs"] += 1
-        if not result.status.ok:
-            counters["incomplete"] += 1
-        out = [trajectory_margin(result, s, fns, p)
-               for s, fns in zip(specs, margins_fn.fns, strict=True)]
-        for i, m in enumerate(out):
-            lowest[m.spec] = min(lowest[m.spec], m.margin)
-            if np.isfinite(m.margin):
-                best_u[i].append((m.margin, u))
-        return out, result, p
-
-    def finish(u: np.ndarray, evaluated) -> Falsification:
-        out, _, p = evaluated
-        i = next(k for k, m in enumerate(out) if m.violation_t is not None)
-        m = out[i]
-        names = problem.compiled.state_names
-        pnames = problem.compiled.parameter_names
-        x0, _ = problem.point(u)  # type: ignore[misc]
-        cx = Counterexample(
-            spec=m.spec, t=float(m.violation_t), mode=str(m.violation_mode),
-            state=dict(zip(names, map(float, m.violation_state), strict=True)),
-            margin=float(m.margin), t_worst=float(m.t),
-            initial=dict(zip(names, map(float, x0), strict=True)),
-            parameters=dict(zip(pnames, map(float, p), strict=True)),
-            inputs={k: float(p[pnames.index(k)]) for k in problem.input_box},
-            initial_mode=problem.mode, t_start=problem.t_start, t_end=problem.t_end,
-            options=problem.options, compiled=problem.compiled)
-        return Falsification(cx, dict(lowest), counters["runs"], counters["incomplete"],
-                             time.perf_counter() - started)
-
-    for u in _sample_plan(d, options, rng):
-        evaluated = evaluate(u)
-        if evaluated is not None and any(m.violation_t is not None for m in evaluated[0]):
-            return finish(u, evaluated)
-    if d and options.local_evals:
-        for i in range(len(specs)):
-            starts = sorted(best_u[i], key=lambda item: item[0])[:options.local_starts]
-            for _, u0 in starts:
-                found = _local_search(i, u0, d, options.local_evals, evaluate)
-                if found is not None:
-                    return finish(*found)
-    return Falsification(None, dict(lowest), counters["runs"], counters["incomplete"],
-                         time.perf_counter() - started)
+    search = FalsificationSearch(problem, specs, options)
+    found = search.sample()
+    return found if found.counterexample is not None else search.local()
 
 
 def _sample_plan(d: int, options: FalsifyOptions, rng: np.random.Generator) -> list[np.ndarray]:

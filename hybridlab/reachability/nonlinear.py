@@ -75,11 +75,12 @@ class FlowStepper:
         self._switch_lie = None
         self._affine_A: np.ndarray | None = None
         self._reduction_basis: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._basis_sought = False  # an affine mode's eigenbasis is sought once
 
     def reduce(self, Z: Zonotope, order: float) -> Zonotope:
         """``Z`` reduced to ``order``; for an affine mode, boxed in its eigenvector basis
         (where the flow contracts, so a box mapped and boxed again does not grow)."""
-        if self._reduction_basis is None and self._affine_A is not None:
+        if self._affine_A is not None:
             self._reduction_basis = eigenbasis(self._affine_A)
             self._affine_A = None  # computed (or found missing) once
         return Z.reduce(order, self._reduction_basis)
@@ -188,8 +189,9 @@ class FlowStepper:
             raise StepError(f"mode {m.name!r}: the flow or its Jacobian is not finite at {at}")
         prop = self._propagator(A, c, r)
         B_in = B[:, u_rad > 0] * u_rad[u_rad > 0]
-        if m.affine and self._reduction_basis is None and self._affine_A is None:
+        if m.affine and not self._basis_sought:
             self._affine_A = A
+            self._basis_sought = True
         if m.affine:
             W = Zonotope(np.zeros(nz), B_in) if B_in.size else None
             return affine_step(P, prop, W, self.options.bloat)

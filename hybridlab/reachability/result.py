@@ -59,6 +59,15 @@ class _Context:
         return out
 
 
+def _linear_bounds(supports: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(k, 2)`` bounds of ``a_i . z + b_i`` from the supports of ``a_i`` then ``-a_i``."""
+    k = b.size
+    hi = supports[:k] + b
+    lo = -supports[k:] + b
+    slack = 1e-12 * (1.0 + np.abs(lo) + np.abs(hi))
+    return np.column_stack([np.nextafter(lo - slack, -np.inf), np.nextafter(hi + slack, np.inf)])
+
+
 @dataclass(frozen=True, eq=False)
 class ReachSet:
     """One flowpipe piece: every state reachable in ``mode`` at every time in ``t``.
@@ -117,11 +126,8 @@ class ReachSet:
         compiled = ctx.compile(expr)
         if compiled[0] == "linear":
             _, a, b = compiled
-            hi = self._full.support(a) + b
-            lo = -self._full.support(-a) + b
-            slack = 1e-12 * (1.0 + abs(lo) + abs(hi))
-            return (float(np.nextafter(lo - slack, -np.inf)),
-                    float(np.nextafter(hi + slack, np.inf)))
+            lo, hi = _linear_bounds(self._full.supports(np.vstack([a, -a])), np.array([b]))[0]
+            return float(lo), float(hi)
         _, f, uses_t = compiled
         env = [Interval(float(lo), float(hi)) for lo, hi in self._full.bounds()]
         env += [Interval(*ctx.inputs[s]) for s in ctx.inputs]
@@ -129,6 +135,33 @@ class ReachSet:
             env.append(Interval(*self.t))
         r = f.intervals(env)[0]
         return r.lo, r.hi
+
+    def bound_all(self, exprs: Sequence[str | sp.Expr]) -> np.ndarray:
+        """:meth:`bound` of each expression, shape ``(k, 2)``; the linear ones in one product.
+
+        Examples
+        --------
+        >>> import hybridlab
+        >>> result = hybridlab.reach("models/thermostat.toml", initial={"T": (19.0, 21.0)},
+        ...                          t_end=1.0, step=0.1)
+        >>> rs = result.sets[0]
+        >>> bool(np.array_equal(rs.bound_all(["T", "2*T + 1"])[1], rs.bound("2*T + 1")))
+        True
+        """
+        out = np.empty((len(exprs), 2))
+        linear = []
+        for k, expr in enumerate(exprs):
+            compiled = self._context.compile(expr)
+            if compiled[0] == "linear":
+                linear.append((k, compiled[1], compiled[2]))
+            else:
+                out[k] = self.bound(expr)
+        if linear:
+            rows = [k for k, _, _ in linear]
+            A = np.array([a for _, a, _ in linear])
+            b = np.array([b for _, _, b in linear])
+            out[rows] = _linear_bounds(self._full.supports(np.vstack([A, -A])), b)
+        return out
 
     def contains(self, x: Sequence[float] | np.ndarray, tol: float = 1e-9) -> np.ndarray:
         """Whether state(s) ``x`` (rows, model state order) lie in :attr:`set`."""

@@ -27,6 +27,8 @@ True
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 __all__ = ["U", "TINY", "gamma", "product_error", "up"]
@@ -48,7 +50,7 @@ def gamma(k: int) -> float:
     True
     """
     ku = k * U
-    return float(np.nextafter(ku / (1.0 - ku), np.inf))
+    return math.nextafter(ku / (1.0 - ku), math.inf)
 
 
 def up(x: np.ndarray | float, terms: int = 1024) -> np.ndarray:
@@ -59,7 +61,11 @@ def up(x: np.ndarray | float, terms: int = 1024) -> np.ndarray:
     >>> bool(up(1.0) > 1.0), bool(up(1.0) < 1.0 + 1e-12)
     (True, True)
     """
-    return np.asarray(x, dtype=float) * (1.0 + gamma(max(terms, 1024))) + TINY
+    factor = _UP_1024 if terms <= 1024 else 1.0 + gamma(terms)
+    return np.asarray(x, dtype=float) * factor + TINY
+
+
+_UP_1024 = 1.0 + gamma(1024)
 
 
 def product_error(abs_left: np.ndarray, abs_right: np.ndarray) -> np.ndarray:

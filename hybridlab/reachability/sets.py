@@ -167,13 +167,27 @@ class Zonotope:
     def support(self, direction: Sequence[float]) -> float:
         """``max d . x`` over the zonotope (exact: ``d.c + sum |d.g_i|``)."""
         d = _vector(direction, "direction")
-        dG = d @ self.generators
-        value = float(d @ self.center + np.sum(np.abs(dG)))
+        return float(self.supports(d[None, :])[0])
+
+    def supports(self, directions: np.ndarray) -> np.ndarray:
+        """:meth:`support` of each row of ``directions`` (shape ``(k, n)``), rounded up.
+
+        Examples
+        --------
+        >>> Z = Zonotope([1.0, 0.0], [[1.0, 0.0], [1.0, 2.0]])
+        >>> Z.supports(np.array([[1.0, 0.0], [0.0, -1.0]])).round(12).tolist()
+        [2.0, 3.0]
+        """
+        D = np.asarray(directions, dtype=float)
+        dG = D @ self.generators
+        spread = np.sum(np.abs(dG), axis=1)
+        value = D @ self.center + spread
+        abs_D = np.abs(D)
         # rounded up: the products' error bounds and the sum's
-        err = (product_error(np.abs(d)[None, :], np.abs(self.center))[0]
-               + float(np.sum(product_error(np.abs(d)[None, :], np.abs(self.generators))))
-               + 2 * U * (abs(value) + float(np.sum(np.abs(dG)))))
-        return float(up(value + float(up(err))))
+        err = (product_error(abs_D, np.abs(self.center))
+               + np.sum(product_error(abs_D, np.abs(self.generators)), axis=1)
+               + 2 * U * (np.abs(value) + spread))
+        return up(value + up(err))
 
     def interval_hull(self) -> Box:
         """The smallest box containing the zonotope."""

@@ -1,14 +1,17 @@
 """Verdicts: SAFE (proved by reachability), UNSAFE (a counterexample), UNKNOWN (and why).
 
 :func:`check` runs the cheap part first: falsification by simulation from the
-initial set (:mod:`hybridlab.reachability.falsify`). A violation found there is
-a concrete trajectory, so the verdict is UNSAFE. Otherwise the flowpipes of
+centre, corners and samples of the initial set
+(:mod:`hybridlab.reachability.falsify`). A violation found there is a concrete
+trajectory, so the verdict is UNSAFE. Otherwise the flowpipes of
 :func:`hybridlab.reach` are computed and every spec is bounded over every reach
 set of the modes it covers (``ReachSet.bound``: exact for rows linear in the
 states, interval arithmetic otherwise). All lower bounds ``>= 0`` (``> 0`` for
 a region to avoid) on a complete reach result (every branch followed to
 ``t_end``) is a proof: SAFE. Anything else is UNKNOWN, with the reason and the
-tightest bound, its mode and its time interval.
+tightest bound, its mode and its time interval. The falsification's local
+search (many more simulations) runs only where the flowpipes did not prove
+every spec, so it can still turn an unproved spec into UNSAFE.
 """
 
 from __future__ import annotations
@@ -26,8 +29,8 @@ from hybridlab.model.schema import Model
 from hybridlab.reachability.falsify import (
     Counterexample,
     Falsification,
+    FalsificationSearch,
     FalsifyOptions,
-    falsify,
     resolve_problem,
 )
 from hybridlab.reachability.spec import Avoid, Spec, as_specs
@@ -171,7 +174,7 @@ def bound_specs(specs: Iterable[Spec], reach_result: Any) -> tuple[SpecBound, ..
             if not spec.covers(rs.mode):
                 continue
             count += 1
-            lower = spec.combine_lower([float(rs.bound(row)[0]) for row in spec.rows[rs.mode]])
+            lower = spec.combine_lower(rs.bound_all(spec.rows[rs.mode])[:, 0].tolist())
             if lower < best.lower or best.mode is None and lower == best.lower:
                 best = SpecBound(spec.text, lower, rs.mode,
                                  (float(rs.t[0]), float(rs.t[1])), int(rs.jumps))
@@ -247,21 +250,16 @@ def check(
     specs = as_specs(safe, compiled)
     texts = tuple(s.text for s in specs)
 
-    found = falsify(problem, specs, falsify_options)
-    cx = found.counterexample
-    if cx is not None:
-        state = ", ".join(f"{k}={v:.6g}" for k, v in cx.state.items())
-        reason = (f"spec {cx.spec!r} is violated at t={cx.t:.10g} in mode {cx.mode!r} "
-                  f"({state}); the lowest margin along that run is {cx.margin:.6g} at "
-                  f"t={cx.t_worst:.6g} (found in {found.runs} simulation(s))")
-        return Verdict(VerdictStatus.UNSAFE, texts, reason, margin=cx.margin, counterexample=cx,
-                       falsification=found, time_s=time.perf_counter() - started)
-    sim_margin = min(found.margins.values())
-    evidence = (f"falsification found no violation in {found.runs} simulation(s) (lowest "
-                f"simulated margin {sim_margin:.6g})")
+    search = FalsificationSearch(problem, specs, falsify_options)
+    found = search.sample()
+    if found.counterexample is not None:
+        return _unsafe(found, texts, started)
     if not prove:
+        found = search.local()
+        if found.counterexample is not None:
+            return _unsafe(found, texts, started)
         return Verdict(VerdictStatus.UNKNOWN, texts,
-                       f"reachability was not attempted (prove=False); {evidence}",
+                       f"reachability was not attempted (prove=False); {_evidence(found)}",
                        falsification=found, time_s=time.perf_counter() - started)
 
     from hybridlab.reachability import reach  # the flowpipes: a sibling module
@@ -276,9 +274,13 @@ def check(
                            scenario=scenario, params=params, inputs=inputs, options=options,
                            executor=executor, **{**reach_overrides, **stage})
         except (HybridlabError, ArithmeticError, NotImplementedError, RuntimeError) as exc:
+            found = search.local()
+            if found.counterexample is not None:
+                return _unsafe(found, texts, started)
             text = " ".join(str(exc).split())
             return Verdict(VerdictStatus.UNKNOWN, texts,
-                           f"reachability failed ({type(exc).__name__}: {text}); {evidence}",
+                           f"reachability failed ({type(exc).__name__}: {text}); "
+                           f"{_evidence(found)}",
                            falsification=found, time_s=time.perf_counter() - started)
         bounds = bound_specs(specs, result)
         tightest = min(bounds, key=lambda b: b.lower)
@@ -287,6 +289,11 @@ def check(
         jumped = any(rs.jumps for rs in result.sets)
         if proved or chosen or not jumped or not result.complete:
             break
+    if not (proved and result.complete):
+        # the local search only pays where the flowpipes proved too little
+        found = search.local()
+        if found.counterexample is not None:
+            return _unsafe(found, texts, started)
     refined = (" (refined: the guard hits grouped into compact clusters, clustering='auto')"
                if stage else "")
     elapsed = time.perf_counter() - started
@@ -312,8 +319,24 @@ def check(
     if refined:
         reasons.append("the guard hits were also grouped into compact clusters "
                        "(clustering='auto') without proving more")
-    return Verdict(VerdictStatus.UNKNOWN, texts, "; ".join(reasons) + f"; {evidence}",
+    return Verdict(VerdictStatus.UNKNOWN, texts, "; ".join(reasons) + f"; {_evidence(found)}",
                    time_s=elapsed, **common)
+
+
+def _evidence(found: Falsification) -> str:
+    return (f"falsification found no violation in {found.runs} simulation(s) (lowest "
+            f"simulated margin {min(found.margins.values()):.6g})")
+
+
+def _unsafe(found: Falsification, texts: tuple[str, ...], started: float) -> Verdict:
+    cx = found.counterexample
+    assert cx is not None
+    state = ", ".join(f"{k}={v:.6g}" for k, v in cx.state.items())
+    reason = (f"spec {cx.spec!r} is violated at t={cx.t:.10g} in mode {cx.mode!r} "
+              f"({state}); the lowest margin along that run is {cx.margin:.6g} at "
+              f"t={cx.t_worst:.6g} (found in {found.runs} simulation(s))")
+    return Verdict(VerdictStatus.UNSAFE, texts, reason, margin=cx.margin, counterexample=cx,
+                   falsification=found, time_s=time.perf_counter() - started)
 
 
 def _fmt(x: float) -> str:

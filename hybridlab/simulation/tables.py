@@ -91,6 +91,10 @@ class Segment:
             out[:] = self.y[:, :1]
         else:
             idx = np.clip(np.searchsorted(self.t, ts, side="left") - 1, 0, len(self.t) - 2)
+            at_steps = getattr(self.interpolants, "at_steps", None)
+            if at_steps is not None:  # one vectorised call for every step
+                out[:] = at_steps(idx, ts)
+                return out[:, 0] if np.ndim(t) == 0 else out
             # one vectorised call per integrator step
             bounds = np.flatnonzero(np.diff(idx)) + 1
             for chunk in np.split(np.arange(ts.size), bounds):

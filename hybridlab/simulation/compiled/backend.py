@@ -160,6 +160,37 @@ class StepInterpolants(Sequence):
             return [self[k] for k in range(*i.indices(len(self)))]
         return _StepInterpolant(self.method, self.n, self.rows[i])
 
+    def at_steps(self, steps: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """The states at times ``t``, each from the step of the same index; shape ``(n, k)``.
+
+        One vectorised evaluation for any number of steps (the per-step callables
+        give the same numbers, one step at a time).
+
+        Examples
+        --------
+        >>> ST = np.array([[0.0, 1.0, 2.0, 1.0, 0.0, 0.0, 0.0],
+        ...                [1.0, 1.0, 3.0, 1.0, 0.0, 0.0, 0.0]])
+        >>> StepInterpolants(0, 1, ST).at_steps(np.array([0, 1]), np.array([0.5, 1.5]))
+        array([[2.5, 3.5]])
+        """
+        rows = self.rows[steps]
+        n = self.n
+        x = ((t - rows[:, 0]) / rows[:, 1])[:, None]
+        coef = rows[:, 2 + n:].reshape(rows.shape[0], -1, n)
+        if self.method == METHOD_CODES["RK45"]:
+            acc = np.zeros((rows.shape[0], n))
+            pw = np.ones_like(x)
+            for k in range(coef.shape[1]):
+                pw = pw * x
+                acc = acc + coef[:, k] * pw
+            y = rows[:, 1:2] * acc + rows[:, 2:2 + n]
+        else:
+            y = np.zeros((rows.shape[0], n))
+            for k in range(coef.shape[1]):
+                y = (y + coef[:, -1 - k]) * (x if k % 2 == 0 else 1 - x)
+            y = y + rows[:, 2:2 + n]
+        return y.T
+
 
 class _StepInterpolant:
     def __init__(self, method: int, n: int, row: np.ndarray) -> None:
