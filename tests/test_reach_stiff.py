@@ -16,6 +16,7 @@ from scipy.linalg import expm
 
 import hybridlab
 from hybridlab.reachability.balls import expm_enclosure
+from hybridlab.reachability.chain import AffineChain
 from hybridlab.reachability.linear import Propagator, affine_step
 from hybridlab.reachability.modal import fast_block
 from hybridlab.reachability.sets import Zonotope
@@ -101,14 +102,16 @@ def stiff_steps(draw):
     return A, c, r, center, width, w, seed
 
 
-def _trajectories(A, c, r, X0, w, rng, n_times=12):
-    """Exact states at dense instants: constant inputs held on random pieces
-    (bang-bang), each piece by the exponential of the augmented matrix."""
+def _trajectories(A, c, r, X0, w, rng, n_times=12, steps=1):
+    """Exact states at dense instants of ``[0, steps r]`` (the step ends among them):
+    constant inputs held on random pieces (bang-bang), each piece by the exponential
+    of the augmented matrix."""
     n = A.shape[0]
     out = []
+    end = steps * r
     for x0 in X0:
-        pieces = np.sort(np.r_[0.0, rng.uniform(0, r, 3), r])
-        times = np.sort(np.r_[rng.uniform(0, r, n_times), 0.0, r])
+        pieces = np.sort(np.r_[0.0, rng.uniform(0, end, 3 * steps), end])
+        times = np.sort(np.r_[rng.uniform(0, end, n_times * steps), r * np.arange(steps + 1)])
         x, t_now, k = x0.copy(), 0.0, 0
         wk = np.zeros(n) if w is None else w * rng.choice([-1.0, 1.0], n)
         states = []
@@ -119,7 +122,7 @@ def _trajectories(A, c, r, X0, w, rng, n_times=12):
                 k += 1
                 wk = np.zeros(n) if w is None else w * rng.choice([-1.0, 1.0], n)
             states.append(_advance(A, c + wk, x, t - t_now))
-        out.append(np.array(states))
+        out.append((times, np.array(states)))
     return out
 
 
@@ -142,7 +145,7 @@ def test_random_stiff_and_badly_scaled_steps_contain_every_sampled_trajectory(ca
     P_next, H = affine_step(P, prop, W)
     corners = center + width * rng.choice([-1.0, 1.0], (4, n))
     inner = center + width * rng.uniform(-1, 1, (2, n))
-    runs = _trajectories(A, c, r, np.vstack([corners, inner]), w, rng)
+    runs = [states for _, states in _trajectories(A, c, r, np.vstack([corners, inner]), w, rng)]
     states = np.vstack(runs)
     scale = 1e-9 * (1.0 + np.max(np.abs(states)))  # scipy's expm is the reference here
     lo, hi = H.bounds().T
@@ -150,6 +153,34 @@ def test_random_stiff_and_badly_scaled_steps_contain_every_sampled_trajectory(ca
     assert np.all(H.contains_points(states, tol=scale))
     ends = np.array([run[-1] for run in runs])
     assert np.all(P_next.contains_points(ends, tol=scale))
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(stiff_steps())
+def test_an_affine_chain_contains_every_sampled_trajectory_over_many_steps(case):
+    A, c, r, center, width, w, seed = case
+    rng = np.random.default_rng(seed)
+    n, steps = A.shape[0], 6
+    prop = Propagator.build(A, c, r, 10)
+    W = None if w is None else Zonotope(np.zeros(n), np.diag(w))
+    chain = AffineChain(prop, Zonotope(center, np.diag(width)), W, order=2)
+    ends, pipes = [chain.first[0]], [chain.first[1]]
+    for _ in range(steps - 1):
+        X, H = chain.advance()
+        ends.append(X)
+        pipes.append(H)
+    corners = center + width * rng.choice([-1.0, 1.0], (4, n))
+    inner = center + width * rng.uniform(-1, 1, (2, n))
+    runs = _trajectories(A, c, r, np.vstack([corners, inner]), w, rng, n_times=4, steps=steps)
+    for times, states in runs:
+        scale = 1e-9 * (1.0 + np.max(np.abs(states)))
+        for t, x in zip(times, states, strict=True):
+            k = min(int(t / r), steps - 1)  # H_k covers [k r, (k + 1) r]
+            assert pipes[k].contains_points(x, tol=scale) or (
+                k and pipes[k - 1].contains_points(x, tol=scale))  # t on a step end
+            on_end = np.isclose(t, r * np.arange(1, steps + 1), rtol=0, atol=1e-15 * r)
+            if np.any(on_end):
+                assert ends[int(np.argmax(on_end))].contains_points(x, tol=scale)
 
 
 STIFF = """

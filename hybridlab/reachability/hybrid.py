@@ -233,7 +233,8 @@ class _Analysis:
         full = H
         box = H.bounds()
         rows = self.system.modes[item.mode].invariants
-        for i in np.flatnonzero(rows.linear):  # exact hull of H within the invariant
+        inside = rows.range(H)[:, 0] >= 0 if rows.size else np.zeros(0, dtype=bool)
+        for i in np.flatnonzero(rows.linear & ~inside):  # exact hull of H within the invariant
             cut = H.bounds_in_slab(rows.a[i], -rows.b[i], np.inf)
             if cut is not None:
                 box = np.column_stack([np.maximum(box[:, 0], cut[:, 0]),

@@ -47,7 +47,7 @@ from hybridlab.reachability.modal import Basis, FastBlock, block_basis, fast_blo
 from hybridlab.reachability.rounding import U, gamma, product_error, up
 from hybridlab.reachability.sets import Zonotope
 
-__all__ = ["StepError", "Propagator", "TaylorBlock", "affine_step"]
+__all__ = ["StepError", "Propagator", "TaylorBlock", "affine_step", "interval_map", "assemble"]
 
 
 class StepError(HybridlabError, ArithmeticError):
@@ -308,7 +308,16 @@ def _homogeneous(P: Zonotope) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return ch, Gh, np.r_[_abs_z(P), 1.0]
 
 
-def _zonotope(center: np.ndarray, gens: np.ndarray, box: np.ndarray, bloat: float) -> Zonotope:
+def interval_map(phi: np.ndarray, phi_rad: np.ndarray, P: Zonotope
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(center, generators, box)`` in homogeneous coordinates containing ``M x_h`` for
+    every ``M`` within ``phi +- phi_rad`` and every ``x`` of ``P`` (``x_h = (x, 1)``)."""
+    ch, Gh, absP = _homogeneous(P)
+    return phi @ ch, phi @ Gh, up(phi_rad @ absP + product_error(np.abs(phi), absP))
+
+
+def assemble(center: np.ndarray, gens: np.ndarray, box: np.ndarray, bloat: float = 0.0
+             ) -> Zonotope:
     """The zonotope ``(center, gens) + box``, enlarged by the rounding of its assembly.
 
     Each entry of ``center`` and ``gens`` went through at most four roundings (a
@@ -354,11 +363,9 @@ def affine_step(P: Zonotope, prop: Propagator, W: Zonotope | None = None,
     """
     n = P.dim
     ch, Gh, absP = _homogeneous(P)
-    phi = prop.phi
-    c1, G1 = phi @ ch, phi @ Gh
-    err = up(prop.phi_rad @ absP + product_error(np.abs(phi), absP))
+    c1, G1, err = interval_map(prop.phi, prop.phi_rad, P)
     WG, w_box = prop.input_set(W, n)
-    P_next = _zonotope(c1[:n], np.hstack([G1[:n], WG]), up(err[:n] + w_box), bloat)
+    P_next = assemble(c1[:n], np.hstack([G1[:n], WG]), up(err[:n] + w_box), bloat)
     center, gens, box = prop.between(ch, Gh, c1, G1, absP)
-    H = _zonotope(center[:n], np.hstack([gens[:n], WG]), up(box[:n] + err[:n] + w_box), bloat)
+    H = assemble(center[:n], np.hstack([gens[:n], WG]), up(box[:n] + err[:n] + w_box), bloat)
     return P_next, H

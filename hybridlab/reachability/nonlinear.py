@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from hybridlab.reachability.chain import AffineChain
 from hybridlab.reachability.linear import Propagator, StepError, affine_step
 from hybridlab.reachability.modal import eigenbasis
 from hybridlab.reachability.options import ReachOptions
@@ -76,18 +77,28 @@ class FlowStepper:
         self._affine_A: np.ndarray | None = None
         self._reduction_basis: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._basis_sought = False  # an affine mode's eigenbasis is sought once
+        # an affine mode without switching functions is stepped by an AffineChain, which
+        # continues while it is handed back its own last end set
+        self._chain: AffineChain | None = None
+        self._chain_end: Zonotope | None = None
 
     def reduce(self, Z: Zonotope, order: float) -> Zonotope:
         """``Z`` reduced to ``order``; for an affine mode, boxed in its eigenvector basis
         (where the flow contracts, so a box mapped and boxed again does not grow)."""
+        if self._chain is not None and Z is self._chain_end:
+            return Z  # a chain's end set: its size is bounded, and reducing it would wrap
+        return Z.reduce(order, self._basis())
+
+    def _basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         if self._affine_A is not None:
             self._reduction_basis = eigenbasis(self._affine_A)
             self._affine_A = None  # computed (or found missing) once
-        return Z.reduce(order, self._reduction_basis)
+        return self._reduction_basis
 
     def reset(self) -> None:
-        """Forget the remainder guess (a new flowpipe starts)."""
+        """Forget the remainder guess and the affine chain (a new flowpipe starts)."""
         self._remainder[:] = 0.0
+        self._chain = None
 
     def _sigma_signs(self, Z: Zonotope) -> np.ndarray:
         """+1/-1 where the switching function has that sign over ``Z``, 0 where free."""
@@ -115,6 +126,10 @@ class FlowStepper:
             When the remainder does not settle within ``options.remainder_iterations``
             (the set or the step is too large for the linearisation).
         """
+        chain = self._chain
+        if chain is not None and P is self._chain_end and chain.prop.r == r and not chain.worn:
+            self._chain_end, H = chain.advance()
+            return self._chain_end, H
         signs = self._sigma_signs(P)
         for _ in range(self.n_sigma + 1):
             P_next, H = self._step_with(P, r, signs)
@@ -194,7 +209,11 @@ class FlowStepper:
             self._basis_sought = True
         if m.affine:
             W = Zonotope(np.zeros(nz), B_in) if B_in.size else None
-            return affine_step(P, prop, W, self.options.bloat)
+            if self.n_sigma or self.options.bloat:
+                return affine_step(P, prop, W, self.options.bloat)
+            self._chain = AffineChain(prop, P, W, self.options.order, self._basis())
+            self._chain_end = self._chain.first[0]
+            return self._chain.first
         guess = self._remainder.copy()
         for _ in range(self.options.remainder_iterations):
             W = Zonotope(np.zeros(nz), np.hstack([B_in, np.diag(guess)]))

@@ -198,15 +198,21 @@ class Zonotope:
         """The interval hull as a zonotope."""
         return self.interval_hull().to_zonotope()
 
-    def linear_map(self, M: Any, offset: Any = None) -> Zonotope:
-        """``{M x + offset}``, exact up to the products' rounding, which is enclosed by a box."""
+    def linear_map(self, M: Any, offset: Any = None, radius: Any = None) -> Zonotope:
+        """``{M x + offset}``, exact up to the products' rounding, which is enclosed by a box.
+
+        With ``radius`` (entrywise, the shape of ``M``) the map is any matrix within
+        ``M +- radius``, also enclosed by the box.
+        """
         M = np.atleast_2d(np.asarray(M, dtype=float))
         c = M @ self.center
         if offset is not None:
             c = c + np.asarray(offset, dtype=float)
         G = M @ self.generators
-        err = product_error(np.abs(M), up(np.abs(self.center)
-                                          + np.sum(np.abs(self.generators), axis=1)))
+        size = up(np.abs(self.center) + np.sum(np.abs(self.generators), axis=1))
+        err = product_error(np.abs(M), size)
+        if radius is not None:
+            err = err + np.asarray(radius, dtype=float) @ size
         err = up(err + U * np.abs(c))  # the offset's addition
         return Zonotope(c, np.hstack([G, np.diag(err)])).compact()
 
