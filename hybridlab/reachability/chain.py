@@ -13,7 +13,9 @@ where ``X_k`` holds the states at relative time ``k r`` and ``H_k`` those over
 ``[k r, (k + 1) r]``. ``Phi^k X_0`` and ``Phi^k H_0`` keep the generators of
 ``X_0`` and ``H_0``: they are never reduced, so the flowpipe does not wrap, and a
 step costs a few small matrix products. Only the input sum ``S_k`` is reduced
-(none for a mode without inputs).
+(none for a mode without inputs), and only its generators beyond a budget: its
+boxes are kept in the mode's eigenvector coordinates, where boxes add by their
+radii (:class:`InputSum`).
 
 ``Phi^k`` is carried as an interval matrix (midpoint and entrywise radius) that
 starts from the ball enclosure of ``Phi`` and bounds every product's rounding, so
@@ -29,7 +31,7 @@ from hybridlab.reachability.linear import Propagator, affine_step, assemble, int
 from hybridlab.reachability.rounding import product_error, up
 from hybridlab.reachability.sets import Zonotope
 
-__all__ = ["AffineChain"]
+__all__ = ["AffineChain", "InputSum"]
 
 _WORN = 1e-9
 """Relative radius of the enclosure of ``Phi^k`` beyond which a chain is restarted."""
@@ -74,15 +76,18 @@ class AffineChain:
     def __init__(self, prop: Propagator, P: Zonotope, W: Zonotope | None, order: float,
                  basis: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> None:
         n = P.dim
-        self.prop, self.n, self.order, self.basis = prop, n, order, basis
+        self.prop, self.n = prop, n
         self.first = affine_step(P, prop, W)
         self.X0 = P
         self.H0 = self.first[1].reduce(order, basis)
         WG, w_box = prop.input_set(W, n)
-        self.V = (assemble(np.zeros(n), WG, w_box) if WG.size or np.any(w_box > 0)
-                  else None)
+        self.V = (WG, w_box) if WG.size or np.any(w_box > 0) else None
+        # the sum keeps generators while H_k stays within the order
+        budget = int(order * n) - self.H0.generators.shape[1] - 2 * n
+        self.S = InputSum(n, max(budget, n), basis)
+        if self.V is not None:
+            self.S.add(np.eye(n), np.zeros((n, n)), *self.V)  # S_1 = V
         self.M, self.M_rad = prop.phi.copy(), prop.phi_rad.copy()  # Phi^k for k = 1
-        self.S = self.V  # S_1 = V
         self.steps = 1
 
     @property
@@ -93,21 +98,89 @@ class AffineChain:
     def advance(self) -> tuple[Zonotope, Zonotope]:
         """``(X_{k+1}, H_k)`` for the next ``k``: the next step's end set and its flowpipe."""
         n = self.n
-        c, G, err = interval_map(self.M, self.M_rad, self.H0)
-        H = self._plus_sum(assemble(c[:n], G[:n], err[:n]))
+        H = self._plus_sum(*interval_map(self.M, self.M_rad, self.H0))
         if self.V is not None:
-            S_next = self.V.linear_map(self.M[:n, :n], radius=self.M_rad[:n, :n])
-            self.S = (S_next if self.S is None else self.S + S_next).reduce(self.order,
-                                                                               self.basis)
+            self.S.add(self.M[:n, :n], self.M_rad[:n, :n], *self.V)  # S_{k+1} = S_k + Phi^k V
         phi, phi_rad = self.prop.phi, self.prop.phi_rad
         abs_phi, abs_M = np.abs(phi), np.abs(self.M)
         self.M_rad = up(abs_phi @ self.M_rad + phi_rad @ (abs_M + self.M_rad)
                         + product_error(abs_phi, abs_M))
         self.M = phi @ self.M
         self.steps += 1
-        c, G, err = interval_map(self.M, self.M_rad, self.X0)
-        X = self._plus_sum(assemble(c[:n], G[:n], err[:n]))
+        X = self._plus_sum(*interval_map(self.M, self.M_rad, self.X0))
         return X, H
 
-    def _plus_sum(self, Z: Zonotope) -> Zonotope:
-        return Z if self.S is None else Z + self.S
+    def _plus_sum(self, c: np.ndarray, G: np.ndarray, err: np.ndarray) -> Zonotope:
+        """The mapped set (homogeneous ``c``, ``G`` and ``err``) plus the input sum."""
+        n = self.n
+        if self.V is None:
+            return assemble(c[:n], G[:n], err[:n])
+        S_gens, S_box = self.S.parts()
+        return assemble(c[:n], np.hstack([G[:n], S_gens]), up(err[:n] + S_box))
+
+
+class InputSum:
+    """``S_k = V + Phi V + ... + Phi^(k-1) V``: generators up to a budget, the rest a box.
+
+    The box is kept in the coordinates of a basis (the mode's eigenvectors, where the
+    flow contracts): boxes in one basis add by their radii, so that part is exact under
+    sums and never needs reducing. Each term's own box (the input tail and the
+    products' rounding) goes there at once, and generators beyond the budget are moved
+    there, smallest first (Girard's criterion).
+
+    Parameters
+    ----------
+    n : int
+    budget : int
+        Generators kept.
+    basis : tuple, optional
+        ``(S, inv_mid, inv_rad)``: the basis and an enclosure of its inverse; the state
+        axes if ``None``.
+
+    Examples
+    --------
+    >>> total = InputSum(1, budget=1, basis=None)
+    >>> for _ in range(3):
+    ...     total.add(np.eye(1), np.zeros((1, 1)), np.array([[1.0]]), np.array([0.5]))
+    >>> total.zonotope().radius().round(9).tolist()     # three times 1 + 0.5
+    [4.5]
+    """
+
+    def __init__(self, n: int, budget: int,
+                 basis: tuple[np.ndarray, np.ndarray, np.ndarray] | None) -> None:
+        self.budget = budget
+        self.basis = basis if basis is not None else (np.eye(n), np.eye(n), np.zeros((n, n)))
+        self.G = np.zeros((n, 0))
+        self.rho = np.zeros(n)  # radius of the box in the basis coordinates
+
+    def add(self, M: np.ndarray, M_rad: np.ndarray, WG: np.ndarray, w_box: np.ndarray) -> None:
+        """Add ``M V`` for every matrix within ``M +- M_rad``; ``V = WG [-1, 1]^m + box``."""
+        size = up(np.sum(np.abs(WG), axis=1) + w_box)
+        abs_M = np.abs(M)
+        x_box = up(abs_M @ w_box + M_rad @ size + product_error(abs_M, size))
+        self.G = np.hstack([self.G, M @ WG])
+        self._box(x_box)
+        excess = self.G.shape[1] - self.budget
+        if excess > 0:
+            score = np.sum(np.abs(self.G), axis=0) - np.max(np.abs(self.G), axis=0)
+            ranked = np.argsort(score)
+            self._box(up(np.sum(np.abs(self.G[:, ranked[:excess]]), axis=1), excess))
+            self.G = self.G[:, ranked[excess:]]
+
+    def _box(self, x_radius: np.ndarray) -> None:
+        """Add the box ``|x| <= x_radius`` (state axes) to the basis box."""
+        _, inv_mid, inv_rad = self.basis
+        y = up(np.abs(inv_mid) @ x_radius + inv_rad @ x_radius
+               + product_error(np.abs(inv_mid), x_radius))
+        self.rho = up(self.rho + y)
+
+    def parts(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(generators, box)``: the zero-centred zonotope of the sum, plus a box (state
+        axes) that bounds the rounding of the basis box's generators."""
+        S = self.basis[0]
+        return np.hstack([self.G, S * self.rho[None, :]]), product_error(np.abs(S), self.rho)
+
+    def zonotope(self) -> Zonotope:
+        """The sum as a zonotope (its generators and the basis box)."""
+        gens, box = self.parts()
+        return assemble(np.zeros(gens.shape[0]), gens, box)

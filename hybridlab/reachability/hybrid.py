@@ -16,7 +16,9 @@ window):
   non-negative over ``H``. Consecutive steps that may fire it form a cluster.
   Each step set is cut down to the guard and the source invariant (LPs over the
   zonotope, plus exact clipping by axis-aligned rows), the cluster's pieces are
-  joined into their interval hull (``clustering="box"``), the reset is applied
+  joined (``clustering="box"``) into their box in the state axes or in the run's
+  principal axes, whichever is smaller (:mod:`~hybridlab.reachability.clusters`),
+  the reset is applied
   (exactly for affine resets, by the mean-value form with an interval Jacobian
   otherwise) and the result, with the union of the cluster's time windows,
   goes on the waiting list. The flow continues past a cluster because the guard
@@ -47,6 +49,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from hybridlab.reachability.clusters import groups, hull, oriented_hull
 from hybridlab.reachability.linear import StepError
 from hybridlab.reachability.nonlinear import FlowStepper
 from hybridlab.reachability.options import ReachOptions
@@ -105,6 +108,12 @@ def _within(Z: Zonotope | None, rows: Rows) -> Zonotope | None:
     return Z
 
 
+def _linear_rows(*rows: Rows) -> tuple[np.ndarray, np.ndarray]:
+    """The linear rows ``a z + b >= 0`` of ``rows`` as ``A z <= b``."""
+    return (np.vstack([-r.a[r.linear] for r in rows]),
+            np.concatenate([r.b[r.linear] for r in rows]))
+
+
 def _clip_axis(box: np.ndarray, rows: Rows) -> np.ndarray | None:
     """Intersect a box with the axis-aligned linear rows ``a_i z_j + b >= 0``, exactly."""
     box = box.copy()
@@ -122,44 +131,6 @@ def _clip_axis(box: np.ndarray, rows: Rows) -> np.ndarray | None:
         if box[j, 0] > box[j, 1]:
             return None
     return box
-
-
-#: "auto" clustering: a run of guard hits is split where joining the next piece would make
-#: the group's interval hull wider than this many times its widest piece in some coordinate
-_GROUP_GROWTH = 2.0
-
-
-def _groups(pieces: list[tuple[np.ndarray, float, float]], clustering: str
-            ) -> list[list[tuple[np.ndarray, float, float]]]:
-    """The cut pieces (box, t0, t1) of one cluster, in groups that are joined into one box.
-
-    ``"box"``: one group; ``"none"``: one per piece; ``"auto"``: consecutive pieces, a new
-    group whenever the hull would grow past ``_GROUP_GROWTH`` times the widest piece in
-    some coordinate (a short run that stays compact is one box; a long sweep across the
-    guard becomes several, each tight).
-    """
-    if not pieces:
-        return []
-    if clustering == "box":
-        return [pieces]
-    if clustering == "none":
-        return [[p] for p in pieces]
-    groups = [[pieces[0]]]
-    lo, hi = pieces[0][0][:, 0].copy(), pieces[0][0][:, 1].copy()
-    widest = hi - lo
-    for piece in pieces[1:]:
-        box = piece[0]
-        new_lo, new_hi = np.minimum(lo, box[:, 0]), np.maximum(hi, box[:, 1])
-        new_widest = np.maximum(widest, box[:, 1] - box[:, 0])
-        scale = 1e-12 * (1.0 + np.abs(new_lo) + np.abs(new_hi))
-        if np.all(new_hi - new_lo <= _GROUP_GROWTH * new_widest + scale):
-            groups[-1].append(piece)
-            lo, hi, widest = new_lo, new_hi, new_widest
-        else:
-            groups.append([piece])
-            lo, hi = box[:, 0].copy(), box[:, 1].copy()
-            widest = hi - lo
-    return groups
 
 
 class _Analysis:
@@ -455,9 +426,7 @@ class _Analysis:
     def _cut(self, Z: Zonotope, guard: Rows, invariant: Rows) -> Zonotope | None:
         """``Z`` intersected with the guard and invariant rows, over-approximated by a box
         (or ``Z`` itself when nothing cuts it)."""
-        lin_a = [-guard.a[guard.linear], -invariant.a[invariant.linear]]
-        lin_b = [guard.b[guard.linear], invariant.b[invariant.linear]]
-        A, b = np.vstack(lin_a), np.concatenate(lin_b)
+        A, b = _linear_rows(guard, invariant)
         box = Z.bounds()
         if A.shape[0] and self.options.intersection == "lp":
             box = Z.bounds_within(A, b)
@@ -492,18 +461,23 @@ class _Analysis:
     def _jump(self, item: Item, tr, cluster: list[tuple[Zonotope, float, float]]) -> None:
         guard = self.system.guards[tr.index]
         invariant = self.system.modes[item.mode].invariants
-        pieces = []
+        pieces, sets = [], []
         for H, t0, t1 in cluster:
             piece = self._cut(H, guard, invariant)
             if piece is not None:
                 pieces.append((piece.bounds(), t0, t1))
-        for group in _groups(pieces, self.options.clustering):
-            boxes = [box for box, _, _ in group]
-            t_lo = min(t0 for _, t0, _ in group)
-            t_hi = max(t1 for _, _, t1 in group)
-            stack = np.stack(boxes)
-            box = np.column_stack([stack[:, :, 0].min(axis=0), stack[:, :, 1].max(axis=0)])
-            pre = Box(box[:, 0], box[:, 1]).to_zonotope()
+                sets.append(H)
+        A, b = _linear_rows(guard, invariant)
+        for group in groups(pieces, self.options.clustering):
+            t_lo = min(pieces[k][1] for k in group)
+            t_hi = max(pieces[k][2] for k in group)
+            box = hull([pieces[k][0] for k in group])
+            if self.options.intersection == "lp":
+                pre = oriented_hull([sets[k] for k in group], A, b, box)
+                if pre is None:
+                    continue
+            else:
+                pre = Box(box[:, 0], box[:, 1]).to_zonotope()
             try:
                 post = self._reset(tr.index, pre)
             except StepError as exc:
