@@ -183,3 +183,33 @@ def test_membership_lp_is_robust_to_badly_scaled_states():
     k = int(np.argmax(radius))
     outside[k] = z.center[k] + 1.5 * radius[k]
     assert not bool(z.contains_points(outside, 1e-7))
+
+
+# ----- guard clusters ----------------------------------------------------------------------------
+@settings(max_examples=40, deadline=None)
+@given(data=st.data(), k=st.integers(1, 6), n=st.integers(2, 3))
+def test_a_cluster_hull_contains_every_piece_within_the_guard(data, k, n):
+    """The cluster's joined set (principal or state axes) contains every sampled point of
+    every piece that satisfies the guard rows."""
+    from hybridlab.reachability.clusters import hull, oriented_hull
+
+    drift = np.array(data.draw(st.lists(st.floats(-5, 5), min_size=n, max_size=n)))
+    base = data.draw(zonotopes(n=n, max_m=4))
+    rot = np.array(data.draw(st.lists(st.floats(-1, 1), min_size=n * n, max_size=n * n)))
+    sets = [base.linear_map(np.eye(n) + 0.1 * j * rot.reshape(n, n), j * drift)
+            for j in range(k)]
+    rows = data.draw(st.integers(0, 2))
+    A = np.array(data.draw(st.lists(st.floats(-2, 2), min_size=rows * n,
+                                    max_size=rows * n))).reshape(rows, n)
+    b = A @ sets[0].center + np.array(data.draw(st.lists(st.floats(0, 5), min_size=rows,
+                                                         max_size=rows)))
+    inside = [pts[np.all(pts @ A.T <= b, axis=1)] for pts in (_samples(Z) for Z in sets)]
+    cuts = [Z.bounds_within(A, b) if rows else Z.bounds() for Z in sets]
+    cuts = [c for c in cuts if c is not None]
+    if not cuts:
+        return
+    axis = hull(cuts)
+    joined = oriented_hull(sets, A, b, axis)
+    assert joined is not None
+    for pts in inside:
+        assert np.all(joined.contains_points(pts, tol=1e-7))

@@ -150,6 +150,8 @@ def oriented_hull(sets: Sequence[Zonotope], A: np.ndarray, b: np.ndarray,
     # volumes compared on the free coordinates (the frame keeps the flat ones); the
     # frame's determinant converts the box in y to the state space
     det = abs(float(np.linalg.det(U[np.ix_(free, free)])))
+    if not (det > 0 and np.isfinite(det)):
+        return whole
     y_free, x_free = y_box[free], axis_box[free]
     if not _log_volume(y_free) + np.log(det) < _log_volume(x_free):
         return whole
