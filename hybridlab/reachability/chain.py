@@ -19,21 +19,24 @@ radii (:class:`InputSum`).
 
 ``Phi^k`` is carried as an interval matrix (midpoint and entrywise radius) that
 starts from the ball enclosure of ``Phi`` and bounds every product's rounding, so
-the sets stay sound. When that radius stops being negligible the chain reports
-itself worn and the caller starts a new one from the current set.
+the sets stay sound. When that radius stops being negligible, ``Phi^k = e^{A_h k r}``
+is enclosed afresh in ball arithmetic; if even that is too wide (an exponential
+too large for doubles), the chain reports itself worn and the caller starts a new
+one from the current set.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from hybridlab.reachability.balls import expm_power_enclosure
 from hybridlab.reachability.linear import Propagator, affine_step, assemble, interval_map
 from hybridlab.reachability.rounding import product_error, up
 from hybridlab.reachability.sets import Zonotope
 
 __all__ = ["AffineChain", "InputSum"]
 
-_WORN = 1e-9
+_WORN = 1e-6
 """Relative radius of the enclosure of ``Phi^k`` beyond which a chain is restarted."""
 
 
@@ -89,10 +92,12 @@ class AffineChain:
             self.S.add(np.eye(n), np.zeros((n, n)), *self.V)  # S_1 = V
         self.M, self.M_rad = prop.phi.copy(), prop.phi_rad.copy()  # Phi^k for k = 1
         self.steps = 1
+        self.refreshed = 0  # times Phi^k was enclosed afresh
 
     @property
     def worn(self) -> bool:
-        """Whether the enclosure of ``Phi^k`` has grown too wide to continue."""
+        """Whether the enclosure of ``Phi^k`` has grown too wide to continue (even when
+        enclosed afresh: the chain should then start again from the current set)."""
         return bool(np.max(self.M_rad) > _WORN * (1.0 + float(np.max(np.abs(self.M)))))
 
     def advance(self) -> tuple[Zonotope, Zonotope]:
@@ -107,6 +112,9 @@ class AffineChain:
                         + product_error(abs_phi, abs_M))
         self.M = phi @ self.M
         self.steps += 1
+        if self.worn:  # enclose Phi^k afresh, in ball arithmetic
+            self.M, self.M_rad = expm_power_enclosure(self.prop.Ah, self.prop.r, self.steps)
+            self.refreshed += 1
         X = self._plus_sum(*interval_map(self.M, self.M_rad, self.X0))
         return X, H
 

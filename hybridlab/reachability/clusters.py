@@ -25,12 +25,17 @@ from hybridlab.reachability.balls import enclosure, to_arb
 from hybridlab.reachability.rounding import product_error, up
 from hybridlab.reachability.sets import Box, SetError, Zonotope
 
-__all__ = ["GROUP_GROWTH", "groups", "oriented_hull"]
+__all__ = ["COMPACT", "GROUP_GROWTH", "groups", "hull", "oriented_hull"]
 
 GROUP_GROWTH = 2.0
 """``"auto"`` clustering: a run of guard hits is split where joining the next piece would
 make the group's interval hull wider than this many times its widest piece in some
 coordinate."""
+
+
+COMPACT = 2.0
+"""A run whose interval hull is within this many times the summed volume of its pieces'
+boxes keeps the interval hull (the principal axes could not gain more)."""
 
 
 def groups(pieces: list[tuple[np.ndarray, float, float]], clustering: str
@@ -85,10 +90,15 @@ def _log_volume(box: np.ndarray) -> float:
 
 
 def oriented_hull(sets: Sequence[Zonotope], A: np.ndarray, b: np.ndarray,
-                  axis_box: np.ndarray) -> Zonotope | None:
+                  axis_box: np.ndarray, piece_boxes: Sequence[np.ndarray] | None = None
+                  ) -> Zonotope | None:
     """A zonotope containing every ``Z ∩ {A x <= b}`` of ``sets``: the box in the sets'
     principal axes, or ``axis_box`` (their interval hull in the state axes) where that is
     smaller. ``None`` when every intersection is empty.
+
+    ``piece_boxes``, the pieces' own boxes in the state axes, let a run that stays
+    compact (its hull within :data:`COMPACT` times the sum of their volumes) keep the
+    axis box without the LPs of the principal axes.
 
     Examples
     --------
@@ -118,6 +128,10 @@ def oriented_hull(sets: Sequence[Zonotope], A: np.ndarray, b: np.ndarray,
     free = np.flatnonzero(width > 0)  # flat coordinates stay axes
     if free.size < 2 or not np.all(np.isfinite(D)):
         return whole
+    if piece_boxes is not None:
+        pieces = np.log(sum(np.exp(_log_volume(box[free])) for box in piece_boxes) + 1e-300)
+        if _log_volume(axis_box[free]) <= np.log(COMPACT) + pieces:
+            return whole
     # principal axes of the run in coordinates scaled to the hull's widths (so the units
     # of the states do not decide them), mapped back
     U = np.eye(n)

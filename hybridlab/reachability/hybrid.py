@@ -473,7 +473,8 @@ class _Analysis:
             t_hi = max(pieces[k][2] for k in group)
             box = hull([pieces[k][0] for k in group])
             if self.options.intersection == "lp":
-                pre = oriented_hull([sets[k] for k in group], A, b, box)
+                pre = oriented_hull([sets[k] for k in group], A, b, box,
+                                    [pieces[k][0] for k in group])
                 if pre is None:
                     continue
             else:

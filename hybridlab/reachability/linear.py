@@ -152,6 +152,7 @@ class Propagator:
     """
 
     A: np.ndarray
+    Ah: np.ndarray           # [[A, c], [0, 0]], homogeneous (n+1, n+1)
     phi: np.ndarray          # e^{A_h r}, homogeneous (n+1, n+1): midpoint
     phi_rad: np.ndarray      # entrywise radius of the ball around it
     r: float
@@ -184,7 +185,7 @@ class Propagator:
     def _in_basis(A: np.ndarray, Ah: np.ndarray, phi: np.ndarray, phi_rad: np.ndarray,
                   r: float, eta: int, basis: Basis | None) -> Propagator:
         if basis is None:
-            return Propagator(A=A, phi=phi, phi_rad=phi_rad, r=r,
+            return Propagator(A=A, Ah=Ah, phi=phi, phi_rad=phi_rad, r=r,
                               slow=TaylorBlock.build(Ah, r, eta), basis=None, fast=(),
                               coupling=0.0, input_coupling=0.0)
         s = basis.blocks[0]
@@ -197,7 +198,7 @@ class Propagator:
         if not growth < 1e-3:
             raise StepError(f"the block basis is too ill-conditioned for the step {r:g}")
         drift = sup_norm * math.expm1(growth) * (1 + 1e-12) + 1e-300
-        return Propagator(A=A, phi=phi, phi_rad=phi_rad, r=r, slow=slow, basis=basis,
+        return Propagator(A=A, Ah=Ah, phi=phi, phi_rad=phi_rad, r=r, slow=slow, basis=basis,
                           fast=fast, coupling=2.0 * drift, input_coupling=drift * r)
 
     # -- the states between the step ends --------------------------------------------
