@@ -311,6 +311,22 @@ def test_unknown_when_the_bound_is_too_coarse_names_spec_mode_and_time():
     assert verdict.where.t[1] == pytest.approx(1.0)
 
 
+def test_an_unproved_spec_is_refined_by_halving_the_default_step():
+    # the flowpipe's lower bound near t = 1 is exp(-1) - 0.18 r: the default step
+    # (1/400) misses a margin of 1e-4 by 3.6e-4, the step halved three times proves it
+    decay = hybridlab.loads_model(DECAY)
+    spec = f"x >= {math.exp(-1.0) - 1e-4!r}"
+    quiet = FalsifyOptions(samples=2, local_evals=0)
+    verdict = check_safety(decay, initial={"x": (1.0, 2.0)}, t_end=1.0, safe=spec,
+                           falsify_options=quiet)
+    assert verdict.status is VerdictStatus.SAFE, verdict.reason
+    assert verdict.reason.endswith("(refined: step=0.0003125)")
+    assert verdict.reach.options.step == 1 / 400 / 8 and 0 < verdict.margin < 1e-4
+    chosen = check_safety(decay, initial={"x": (1.0, 2.0)}, t_end=1.0, safe=spec,
+                          falsify_options=quiet, step=1 / 400)
+    assert chosen.status is VerdictStatus.UNKNOWN and "refined" not in chosen.reason
+
+
 def test_executor_runs_split_pieces_and_a_bad_one_fails_before_any_work():
     kw = dict(initial={"h": (5.0, 6.0)}, t_end=0.5, safe="h >= -1", split=2,
               falsify_options=FalsifyOptions(samples=0, local_evals=0))

@@ -12,6 +12,8 @@ replayable simulation), but finding none proves nothing. The search
    output, and the first violation instant is located by a root finder;
 3. if nothing is violated, minimises each spec's margin locally (scipy
    ``minimize``, Powell, bounded to the uncertain box) from its best sample.
+   :class:`FalsificationSearch` runs the two stages separately, so that a
+   caller can prove the specs in between and skip the second.
 
 Time-varying inputs are only tried as *constants* within their bounds (each
 sample draws one constant value per input); a violation that needs a varying

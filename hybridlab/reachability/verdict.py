@@ -264,38 +264,63 @@ def check(
 
     from hybridlab.reachability import reach  # the flowpipes: a sibling module
 
-    # refinement: where one box per run of guard hits proves too little, the same analysis
-    # with the hits grouped into compact clusters ("auto"), unless the user chose
-    chosen = "clustering" in reach_overrides or (
+    # refinements where the flowpipes prove too little, each only if the caller left that
+    # knob alone: the guard hits grouped into compact clusters, then the step halved while
+    # each halving closes enough of the gap (one time budget covers every stage)
+    clustering_chosen = "clustering" in reach_overrides or (
         options is not None and getattr(options, "clustering", "box") != "box")
-    for stage in ({}, {"clustering": "auto"}):
-        try:
-            result = reach(compiled, initial=initial, t_end=t_end, mode=mode,
-                           scenario=scenario, params=params, inputs=inputs, options=options,
-                           executor=executor, **{**reach_overrides, **stage})
-        except (HybridlabError, ArithmeticError, NotImplementedError, RuntimeError) as exc:
-            found = search.local()
-            if found.counterexample is not None:
-                return _unsafe(found, texts, started)
-            text = " ".join(str(exc).split())
-            return Verdict(VerdictStatus.UNKNOWN, texts,
-                           f"reachability failed ({type(exc).__name__}: {text}); "
-                           f"{_evidence(found)}",
-                           falsification=found, time_s=time.perf_counter() - started)
-        bounds = bound_specs(specs, result)
-        tightest = min(bounds, key=lambda b: b.lower)
-        margin = None if not math.isfinite(tightest.lower) else tightest.lower
-        proved = all(_proved(s, b.lower) for s, b in zip(specs, bounds, strict=True))
-        jumped = any(rs.jumps for rs in result.sets)
-        if proved or chosen or not jumped or not result.complete:
-            break
+    step_chosen = "step" in reach_overrides or getattr(options, "step", None) is not None
+    overrides = dict(reach_overrides)
+    budget = overrides.get("time_budget", getattr(options, "time_budget", None))
+    if budget is not None and overrides.get("deadline",
+                                            getattr(options, "deadline", None)) is None:
+        overrides["deadline"] = time.time() + float(budget)
+
+    tried: list[str] = []  # the refinements run, for the reason
+
+    def attempt(stage: dict[str, Any]) -> _Attempt:
+        if stage:
+            tried.append(_describe(stage))
+        result = reach(compiled, initial=initial, t_end=t_end, mode=mode, scenario=scenario,
+                       params=params, inputs=inputs, options=options, executor=executor,
+                       **{**overrides, **stage})
+        return _Attempt.of(specs, result, stage)
+
+    try:
+        best = attempt({})
+        if best.open and best.jumped and not clustering_chosen:
+            clustered = attempt({"clustering": "auto"})
+            if clustered.proved and clustered.result.complete or clustered.lower > best.lower:
+                best = clustered
+        if best.open and not step_chosen:
+            step = float(best.result.options.step)
+            for _ in range(_STEP_HALVINGS):
+                step /= 2
+                finer = attempt({**best.stage, "step": step})
+                if not finer.result.complete:
+                    break  # out of budget: the coarser complete result stands
+                gain, gap = finer.lower - best.lower, -best.lower
+                if finer.lower > best.lower or finer.proved:
+                    best = finer
+                if not best.open or not gain >= _STEP_PROGRESS * gap:
+                    break
+    except (HybridlabError, ArithmeticError, NotImplementedError, RuntimeError) as exc:
+        found = search.local()
+        if found.counterexample is not None:
+            return _unsafe(found, texts, started)
+        text = " ".join(str(exc).split())
+        return Verdict(VerdictStatus.UNKNOWN, texts,
+                       f"reachability failed ({type(exc).__name__}: {text}); "
+                       f"{_evidence(found)}",
+                       falsification=found, time_s=time.perf_counter() - started)
+    result, bounds, tightest, proved = best.result, best.bounds, best.tightest, best.proved
+    margin = None if not math.isfinite(tightest.lower) else tightest.lower
     if not (proved and result.complete):
         # the local search only pays where the flowpipes proved too little
         found = search.local()
         if found.counterexample is not None:
             return _unsafe(found, texts, started)
-    refined = (" (refined: the guard hits grouped into compact clusters, clustering='auto')"
-               if stage else "")
+    refined = best.refinement()
     elapsed = time.perf_counter() - started
     common = dict(margin=margin, where=tightest if tightest.mode else None, spec_bounds=bounds,
                   reach=result, falsification=found)
@@ -316,11 +341,58 @@ def check(
                        f"{b.where()} (after {b.jumps} jump(s)) while no simulation violated "
                        f"it: the overlap may be spurious; tighten the reach (smaller time step, "
                        f"higher zonotope order, less clustering) or split the initial set")
-    if refined:
-        reasons.append("the guard hits were also grouped into compact clusters "
-                       "(clustering='auto') without proving more")
+    if tried:
+        reasons.append(f"refined without proving it ({'; then '.join(tried)})")
     return Verdict(VerdictStatus.UNKNOWN, texts, "; ".join(reasons) + f"; {_evidence(found)}",
                    time_s=elapsed, **common)
+
+
+_STEP_HALVINGS = 5
+"""Halvings of the step at most when a verdict is refined."""
+
+_STEP_PROGRESS = 0.2
+"""A halving of the step must close this fraction of the failing bound's gap to go on."""
+
+
+@dataclass(frozen=True)
+class _Attempt:
+    """One reach analysis of a verdict and its spec bounds."""
+
+    result: Any
+    bounds: tuple[SpecBound, ...]
+    tightest: SpecBound
+    proved: bool
+    stage: dict[str, Any]
+    jumped: bool
+
+    @staticmethod
+    def of(specs: list[Spec], result: Any, stage: dict[str, Any]) -> _Attempt:
+        bounds = bound_specs(specs, result)
+        proved = all(_proved(s, b.lower) for s, b in zip(specs, bounds, strict=True))
+        return _Attempt(result, bounds, min(bounds, key=lambda b: b.lower), proved, stage,
+                        any(rs.jumps for rs in result.sets))
+
+    @property
+    def lower(self) -> float:
+        return self.tightest.lower
+
+    @property
+    def open(self) -> bool:
+        """Complete, yet not proved: what a refinement may settle."""
+        return self.result.complete and not self.proved
+
+    def refinement(self) -> str:
+        """The reason's note of the refinements this attempt used ("" for none)."""
+        return f" (refined: {_describe(self.stage)})" if self.stage else ""
+
+
+def _describe(stage: dict[str, Any]) -> str:
+    parts = []
+    if "clustering" in stage:
+        parts.append("the guard hits grouped into compact clusters, clustering='auto'")
+    if "step" in stage:
+        parts.append(f"step={stage['step']:.6g}")
+    return ", ".join(parts)
 
 
 def _evidence(found: Falsification) -> str:
