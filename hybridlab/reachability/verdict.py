@@ -265,8 +265,8 @@ def check(
     from hybridlab.reachability import reach  # the flowpipes: a sibling module
 
     # refinements where the flowpipes prove too little, each only if the caller left that
-    # knob alone: the guard hits grouped into compact clusters, then the step halved while
-    # each halving closes enough of the gap (one time budget covers every stage)
+    # knob alone: the step halved while each halving tightens the failing bound, then the
+    # guard hits grouped into compact clusters (one time budget covers every stage)
     clustering_chosen = "clustering" in reach_overrides or (
         options is not None and getattr(options, "clustering", "box") != "box")
     step_chosen = "step" in reach_overrides or getattr(options, "step", None) is not None
@@ -288,22 +288,24 @@ def check(
 
     try:
         best = attempt({})
-        if best.open and best.jumped and not clustering_chosen:
-            clustered = attempt({"clustering": "auto"})
-            if clustered.proved and clustered.result.complete or clustered.lower > best.lower:
-                best = clustered
         if best.open and not step_chosen:
             step = float(best.result.options.step)
+            stalled = 0  # halvings in a row that did not tighten the failing bound
             for _ in range(_STEP_HALVINGS):
                 step /= 2
                 finer = attempt({**best.stage, "step": step})
                 if not finer.result.complete:
                     break  # out of budget: the coarser complete result stands
-                gain, gap = finer.lower - best.lower, -best.lower
-                if finer.lower > best.lower or finer.proved:
+                improved = finer.lower > best.lower
+                stalled = 0 if improved else stalled + 1
+                if improved or finer.proved:
                     best = finer
-                if not best.open or not gain >= _STEP_PROGRESS * gap:
+                if not best.open or stalled == _STEP_PATIENCE:
                     break
+        if best.open and best.jumped and not clustering_chosen:
+            clustered = attempt({**best.stage, "clustering": "auto"})
+            if clustered.proved and clustered.result.complete or clustered.lower > best.lower:
+                best = clustered
     except (HybridlabError, ArithmeticError, NotImplementedError, RuntimeError) as exc:
         found = search.local()
         if found.counterexample is not None:
@@ -350,9 +352,9 @@ def check(
 _STEP_HALVINGS = 5
 """Halvings of the step at most when a verdict is refined."""
 
-_STEP_PROGRESS = 0.2
-"""A halving of the step must close this fraction of the failing bound's gap to go on."""
-
+_STEP_PATIENCE = 2
+"""Halvings in a row that do not tighten the failing bound before the refinement stops
+(the bound is not monotone in the step: a finer grid meets a guard differently)."""
 
 @dataclass(frozen=True)
 class _Attempt:
