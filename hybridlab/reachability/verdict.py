@@ -252,12 +252,14 @@ def check(
 
     search = FalsificationSearch(problem, specs, falsify_options)
     found = search.sample()
-    if found.counterexample is not None:
-        return _unsafe(found, texts, started)
+    unsafe = _unsafe(found, texts, started)
+    if unsafe is not None:
+        return unsafe
     if not prove:
         found = search.local()
-        if found.counterexample is not None:
-            return _unsafe(found, texts, started)
+        unsafe = _unsafe(found, texts, started)
+        if unsafe is not None:
+            return unsafe
         return Verdict(VerdictStatus.UNKNOWN, texts,
                        f"reachability was not attempted (prove=False); {_evidence(found)}",
                        falsification=found, time_s=time.perf_counter() - started)
@@ -308,8 +310,9 @@ def check(
                 best = clustered
     except (HybridlabError, ArithmeticError, NotImplementedError, RuntimeError) as exc:
         found = search.local()
-        if found.counterexample is not None:
-            return _unsafe(found, texts, started)
+        unsafe = _unsafe(found, texts, started)
+        if unsafe is not None:
+            return unsafe
         text = " ".join(str(exc).split())
         return Verdict(VerdictStatus.UNKNOWN, texts,
                        f"reachability failed ({type(exc).__name__}: {text}); "
@@ -320,8 +323,9 @@ def check(
     if not (proved and result.complete):
         # the local search only pays where the flowpipes proved too little
         found = search.local()
-        if found.counterexample is not None:
-            return _unsafe(found, texts, started)
+        unsafe = _unsafe(found, texts, started)
+        if unsafe is not None:
+            return unsafe
     refined = best.refinement()
     elapsed = time.perf_counter() - started
     common = dict(margin=margin, where=tightest if tightest.mode else None, spec_bounds=bounds,
@@ -402,9 +406,11 @@ def _evidence(found: Falsification) -> str:
             f"simulated margin {min(found.margins.values()):.6g})")
 
 
-def _unsafe(found: Falsification, texts: tuple[str, ...], started: float) -> Verdict:
+def _unsafe(found: Falsification, texts: tuple[str, ...], started: float) -> Verdict | None:
+    """The UNSAFE verdict of a falsification that found a counterexample, else ``None``."""
     cx = found.counterexample
-    assert cx is not None
+    if cx is None:
+        return None
     state = ", ".join(f"{k}={v:.6g}" for k, v in cx.state.items())
     reason = (f"spec {cx.spec!r} is violated at t={cx.t:.10g} in mode {cx.mode!r} "
               f"({state}); the lowest margin along that run is {cx.margin:.6g} at "
