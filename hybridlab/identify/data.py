@@ -23,6 +23,7 @@ from typing import IO
 import numpy as np
 
 from hybridlab._files import read_bounded, replace_file
+from hybridlab._text import printable
 from hybridlab.identify.errors import DataError
 
 __all__ = [
@@ -223,7 +224,8 @@ def _read_rows(path: str | Path, required: Sequence[str],
     missing = [c for c in required if c not in header]
     if missing:
         raise DataError(f"missing column(s) {', '.join(missing)}; the file has "
-                        f"{', '.join(header) or 'no header'}", column=missing[0], source=source)
+                        f"{', '.join(map(printable, header)) or 'no header'}",
+                        column=missing[0], source=source)
     wanted = [*required, *(c for c in optional if c in header)]
     out: dict[str, list[str]] = {c: [] for c in wanted}
     for row in reader:
