@@ -288,8 +288,20 @@ def check(
                        **{**overrides, **stage})
         return _Attempt.of(specs, result, stage)
 
+    failures = (HybridlabError, ArithmeticError, NotImplementedError, RuntimeError)
     try:
         best = attempt({})
+    except failures as exc:
+        found = search.local()
+        unsafe = _unsafe(found, texts, started)
+        if unsafe is not None:
+            return unsafe
+        text = " ".join(str(exc).split())
+        return Verdict(VerdictStatus.UNKNOWN, texts,
+                       f"reachability failed ({type(exc).__name__}: {text}); "
+                       f"{_evidence(found)}",
+                       falsification=found, time_s=time.perf_counter() - started)
+    try:  # a refinement that fails leaves the result before it standing
         if best.open and not step_chosen:
             step = float(best.result.options.step)
             stalled = 0  # halvings in a row that did not tighten the failing bound
@@ -308,16 +320,8 @@ def check(
             clustered = attempt({**best.stage, "clustering": "auto"})
             if clustered.proved and clustered.result.complete or clustered.lower > best.lower:
                 best = clustered
-    except (HybridlabError, ArithmeticError, NotImplementedError, RuntimeError) as exc:
-        found = search.local()
-        unsafe = _unsafe(found, texts, started)
-        if unsafe is not None:
-            return unsafe
-        text = " ".join(str(exc).split())
-        return Verdict(VerdictStatus.UNKNOWN, texts,
-                       f"reachability failed ({type(exc).__name__}: {text}); "
-                       f"{_evidence(found)}",
-                       falsification=found, time_s=time.perf_counter() - started)
+    except failures as exc:
+        tried[-1] += f" (failed: {type(exc).__name__})"
     result, bounds, tightest, proved = best.result, best.bounds, best.tightest, best.proved
     margin = None if not math.isfinite(tightest.lower) else tightest.lower
     if not (proved and result.complete):
