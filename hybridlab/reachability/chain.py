@@ -37,7 +37,8 @@ from hybridlab.reachability.sets import Zonotope
 __all__ = ["AffineChain", "InputSum"]
 
 _WORN = 1e-6
-"""Relative radius of the enclosure of ``Phi^k`` beyond which a chain is restarted."""
+"""Relative radius of the enclosure of ``Phi^k`` beyond which it is enclosed afresh (and,
+if that is still as wide, the chain is worn and restarted)."""
 
 
 class AffineChain:
