@@ -28,7 +28,8 @@ import math
 import numpy as np
 from flint import arb, arb_mat
 
-__all__ = ["to_arb", "enclosure", "expm_enclosure", "expm_power_enclosure", "scalar_bounds"]
+__all__ = ["to_arb", "enclosure", "expm_enclosure", "expm_power_enclosure", "inverse_enclosure",
+           "scalar_bounds"]
 
 
 def to_arb(M: np.ndarray) -> arb_mat:
@@ -104,3 +105,22 @@ def expm_power_enclosure(M: np.ndarray, r: float, k: int) -> tuple[np.ndarray, n
     (True, True)
     """
     return enclosure((to_arb(M) * (arb(float(r)) * int(k))).exp())
+
+
+def inverse_enclosure(M: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(mid, rad)`` enclosing ``M^{-1}``, or ``None`` when ball arithmetic cannot
+    certify an inverse (singular or too ill-conditioned a matrix).
+
+    Examples
+    --------
+    >>> mid, rad = inverse_enclosure(np.array([[2.0, 0.0], [0.0, 4.0]]))
+    >>> mid.tolist(), bool(rad.max() < 1e-15)
+    ([[0.5, 0.0], [0.0, 0.25]], True)
+    >>> inverse_enclosure(np.zeros((2, 2))) is None
+    True
+    """
+    try:
+        mid, rad = enclosure(to_arb(M).inv())
+    except (ZeroDivisionError, ValueError):
+        return None
+    return (mid, rad) if np.all(np.isfinite(rad)) else None

@@ -21,7 +21,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hybridlab.reachability.balls import enclosure, to_arb
+from hybridlab.reachability.balls import inverse_enclosure
 from hybridlab.reachability.rounding import product_error, up
 from hybridlab.reachability.sets import Box, SetError, Zonotope
 
@@ -137,12 +137,10 @@ def oriented_hull(sets: Sequence[Zonotope], A: np.ndarray, b: np.ndarray,
     U = np.eye(n)
     scaled = D[free] / width[free, None]
     U[np.ix_(free, free)] = width[free, None] * np.linalg.svd(scaled)[0]
-    try:
-        inv_mid, inv_rad = enclosure(to_arb(U).inv())
-    except (ZeroDivisionError, ValueError):
+    inverse = inverse_enclosure(U)
+    if inverse is None:
         return whole
-    if not np.all(np.isfinite(inv_rad)):
-        return whole
+    inv_mid, inv_rad = inverse
     boxes = []
     for Z in sets:
         Y = Z.linear_map(inv_mid, radius=inv_rad)  # y = U^{-1} x

@@ -56,7 +56,7 @@ import numpy as np
 from flint import arb, arb_mat
 from scipy import linalg
 
-from hybridlab.reachability.balls import enclosure, scalar_bounds, to_arb
+from hybridlab.reachability.balls import enclosure, inverse_enclosure, scalar_bounds, to_arb
 
 __all__ = ["FAST", "Basis", "FastBlock", "block_basis", "fast_block", "eigenbasis"]
 
@@ -286,13 +286,8 @@ def eigenbasis(A: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | Non
         scale[start:start + size] = np.max(scale[start:start + size])
         start += size
     S = V / scale
-    try:
-        inv_mid, inv_rad = enclosure(to_arb(S).inv())
-    except (ZeroDivisionError, ValueError):
-        return None
-    if not np.all(np.isfinite(inv_rad)):
-        return None
-    return S, inv_mid, inv_rad
+    inverse = inverse_enclosure(S)
+    return None if inverse is None else (S, *inverse)
 
 
 def _up_sum(M: np.ndarray) -> np.ndarray:
