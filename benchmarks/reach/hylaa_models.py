@@ -222,7 +222,29 @@ def _stiff2d(step: float = 0.001, t_end: float = 5.0):
     return Core(ha, _settings(step, t_end)).run([StateSet(init, mode)])
 
 
+_CRANE = [[0.0, 1.0, 0.0, 0.0, 0.0, 0.0],
+          [-0.417533, -3.1931759963, 39.24, 0.0, -14.825331, 11.123344],
+          [0.0, 0.0, 0.0, 1.0, 0.0, 0.0],
+          [0.0417533, 0.31931759963, -4.905, 0.0, 1.4825331, -1.1123344],
+          [0.0638407957, -0.32473339016573, 0.0, 0.0, -3.7332068901, -0.7007592976],
+          [0.0853437452, -0.72366802635628, 0.0, 0.0, -5.9714023436, -2.2736115136]]
+
+
+def _crane(x_min: float, step: float = 0.01, t_end: float = 15.0):
+    """crane.xml: states x, v, y, w, yri, wri (linear, no constant term); forbidden x <= x_min."""
+    lputil, Core, HybridAutomaton, _, _, StateSet = _hylaa()
+    ha = HybridAutomaton("crane")
+    mode = ha.new_mode("move")
+    mode.set_dynamics(_CRANE)
+    _error_transitions(ha, mode, 6, [[({0: 1.0}, x_min)]])
+    init = lputil.from_box([(0.0, 5.0), (0.0, 0.0), (-0.2, 0.2), (-0.1, 0.1), (0.0, 0.0),
+                            (0.0, 0.0)], mode)
+    return Core(ha, _settings(step, t_end)).run([StateSet(init, mode)])
+
+
 BENCHMARKS = {
+    "crane": lambda: _crane(-1.8),
+    "crane_unsafe": lambda: _crane(-1.5),
     # forbidden x >= 10.25  ->  -x <= -10.25
     "bouncing_ball": lambda: _ball([-1.0, 0, 0], -10.25, 0.05, 20.0),
     # forbidden v <= -4.5

@@ -31,7 +31,6 @@ from typing import Any
 
 import numpy as np
 from scipy import optimize
-from scipy.stats import qmc
 
 from hybridlab.model.schema import Model
 from hybridlab.reachability.spec import Spec
@@ -654,8 +653,25 @@ def _sample_plan(d: int, options: FalsifyOptions, rng: np.random.Generator) -> l
     else:
         plan += list(rng.integers(0, 2, size=(options.corners, d)).astype(float))
     if options.samples:
-        plan += list(qmc.LatinHypercube(d=d, seed=rng).random(options.samples))
+        plan += list(latin_hypercube(options.samples, d, rng))
     return plan
+
+
+def latin_hypercube(n: int, d: int, rng: np.random.Generator) -> np.ndarray:
+    """``n`` points in ``[0, 1)^d``, one in each of the ``n`` strata of every coordinate.
+
+    McKay, Beckman and Conover's design: per coordinate a random permutation of the
+    strata and a uniform position inside each (what ``scipy.stats.qmc.LatinHypercube``
+    draws, without importing ``scipy.stats``, which costs 0.7 s at start-up).
+
+    Examples
+    --------
+    >>> u = latin_hypercube(4, 2, np.random.default_rng(0))
+    >>> sorted(np.floor(u[:, 0] * 4).astype(int).tolist())
+    [0, 1, 2, 3]
+    """
+    strata = np.argsort(rng.random((d, n)), axis=1).T
+    return (strata + rng.random((n, d))) / n
 
 
 def _local_search(i: int, u0: np.ndarray, d: int, budget: int, evaluate) -> tuple | None:

@@ -101,7 +101,12 @@ def _within(Z: Zonotope | None, rows: Rows) -> Zonotope | None:
     Sound for a mode's invariant: a trajectory still in the mode satisfies it."""
     if Z is None:
         return None
-    for i in np.flatnonzero(rows.linear):
+    linear = np.flatnonzero(rows.linear)
+    if linear.size == 0:
+        return Z
+    # rows the set already satisfies (support rounded up) cost one product, not a cut
+    crossing = linear[Z.supports(-rows.a[linear]) > rows.b[linear]]
+    for i in crossing:
         Z = Z.intersect_halfspace(-rows.a[i], rows.b[i])
         if Z is None:
             return None
