@@ -17,8 +17,8 @@ from scipy.linalg import expm
 import hybridlab
 from hybridlab.reachability.balls import expm_enclosure
 from hybridlab.reachability.chain import AffineChain
-from hybridlab.reachability.linear import Propagator, affine_step
-from hybridlab.reachability.modal import fast_block
+from hybridlab.reachability.linear import Coupling, Propagator, affine_step
+from hybridlab.reachability.modal import Basis, _chord_deviation, fast_block
 from hybridlab.reachability.sets import Zonotope
 
 MATRICES = {
@@ -70,6 +70,47 @@ def test_a_fast_block_encloses_its_interpolation_error_and_gain(block, r):
     integral = np.trapezoid(absE, t, axis=0)
     assert np.all(blk.gain >= integral * (1 - 1e-3))
     assert np.all(np.linalg.norm(absE, ord=np.inf, axis=(1, 2)) <= blk.sup_norm * (1 + 1e-12))
+
+
+@settings(max_examples=40, deadline=None)
+@given(alpha=st.floats(-300.0, 2.0), beta=st.floats(0.01, 1.5))
+def test_a_turning_pair_stays_near_its_chord_and_the_bound_says_how_near(alpha, beta):
+    s = np.linspace(0.0, 1.0, 20001)
+    theta = s if alpha == 0 else np.expm1(alpha * s) / np.expm1(alpha)
+    lam = complex(alpha, beta)
+    m = np.abs(np.exp(lam * s) - 1 + theta * (1 - np.exp(lam)))
+    bound = _chord_deviation(alpha, beta)
+    assert bound >= m.max()  # sound
+    assert bound <= 1.06 * m.max() + 1e-15  # and within 6 % of the sampled maximum
+
+
+def test_the_coupling_bound_holds_per_coordinate_whatever_one_coordinate_s_scale():
+    """A balanced homogeneous coordinate is huge (here 2**16) and its column of ``B``
+    tiny; the bound of what ``B - B_D`` changes must not carry that size elsewhere."""
+    rng = np.random.default_rng(7)
+    big = 2.0 ** 16
+    B_D = np.zeros((5, 5))
+    B_D[0, :2] = [-0.5, 3.0 / big]                  # slow: x' = -0.5 x + 3, scaled
+    B_D[2, 2] = -40.0                                # a fast real mode
+    B_D[3:, 3:] = [[-2.0, 30.0], [-30.0, -2.0]]      # a fast turning pair
+    E = 1e-9 * rng.random((5, 5))
+    E[1, :] = 0.0                                    # the homogeneous row stays zero
+    E[:, 1] /= big
+    blocks = [slice(0, 2), slice(2, 3), slice(3, 5)]
+    r = 0.05
+    basis = Basis(S=np.eye(5), inv_mid=np.eye(5), inv_rad=np.zeros((5, 5)), blocks=blocks,
+                  B=B_D, perturbation=E, eps=float(np.max(E.sum(axis=1))))
+    coupling = Coupling.build(basis, tuple(fast_block(B_D[b, b], r) for b in blocks[1:]), r)
+    y = np.array([1.0, big, 0.5, 0.3, -0.2])
+    bound = coupling.bound(np.abs(y))
+    assert bound.max() < 1e-7  # an infinity-norm bound would be about 1e-9 * 2**16 * 2
+    phi_D = expm(B_D * r)
+    for _ in range(20):
+        B = B_D + E * rng.choice([-1.0, 1.0], E.shape)
+        phi = expm(B * r)
+        for t in np.linspace(0.0, r, 11):
+            change = (expm(B * t) - t / r * phi) @ y - (expm(B_D * t) - t / r * phi_D) @ y
+            assert np.all(np.abs(change) <= bound)
 
 
 def _random_system(draw, n: int) -> tuple[np.ndarray, np.ndarray]:

@@ -16,7 +16,7 @@ from hybridlab.reachability.hybrid import run_analysis
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.result import ReachResult, merge_results
 from hybridlab.reachability.sets import Box, Polytope, Zonotope, as_zonotope
-from hybridlab.reachability.system import build_system
+from hybridlab.reachability.system import System, build_system
 from hybridlab.reachability.worker import Piece, run_piece
 from hybridlab.simulation.executors import (
     check_executor,
@@ -28,7 +28,7 @@ from hybridlab.simulation.executors import (
 from hybridlab.simulation.resolve import as_compiled, scenario_of
 from hybridlab.symbolic.compile import CompiledModel
 
-__all__ = ["ReachError", "reach"]
+__all__ = ["ReachError", "default_step", "reach"]
 
 
 class ReachError(HybridlabError, ValueError):
@@ -222,7 +222,7 @@ def reach(
 
     opts = (options or ReachOptions()).updated(**option_overrides)
     if opts.step is None:
-        opts = opts.updated(step=(t_end - t0) / 400.0)
+        opts = opts.updated(step=default_step(system, t_end - t0))
     if opts.time_budget is not None and opts.deadline is None:
         opts = opts.updated(deadline=_time.time() + float(opts.time_budget))
     if opts.split == 1:
@@ -245,6 +245,49 @@ def reach(
     finally:
         placement.shutdown()
     return merge_results(results)
+
+
+_DEFAULT_STEPS = 400     # steps over the horizon by default
+_MAX_TURN = 0.5          # radians per step of a lightly damped oscillation, by default
+_MAX_DEFAULT_STEPS = 4000
+
+
+def default_step(system: System, horizon: float) -> float:
+    """The step when none is given: ``horizon / 400``, shortened so that no lightly damped
+    oscillation of an affine mode (eigenvalue with ``|Im| >= |Re|``) turns more than half
+    a radian per step, but never below ``horizon / 4000``.
+
+    A step's flowpipe is the convex hull of its end sets plus a correction; where a
+    mode turns by radians in a step the hull no longer follows it, and each oscillating
+    mode's phase is boxed apart from the others'. On the 48-state building (modes up to
+    90 rad/s, horizon 20) this gives 0.0056 instead of 0.05.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hybridlab import compile_model, load_model
+    >>> from hybridlab.reachability.system import build_system
+    >>> compiled = compile_model(load_model("models/thermostat.toml"))
+    >>> system = build_system(compiled, compiled.parameter_vector(), {}, {})
+    >>> default_step(system, 40.0)
+    0.1
+    """
+    step = horizon / _DEFAULT_STEPS
+    turn = 0.0
+    for m in system.modes.values():
+        if not m.affine:
+            continue
+        nz = len(m.zsyms)
+        A = m.jacobian(np.zeros(nz), np.zeros(len(m.usyms)))[:, :nz]
+        if not np.all(np.isfinite(A)):
+            continue
+        lam = np.linalg.eigvals(A)
+        light = np.abs(lam.imag) >= np.abs(lam.real)
+        if light.any():
+            turn = max(turn, float(np.max(np.abs(lam.imag[light]))))
+    if turn > 0.0:
+        step = max(min(step, _MAX_TURN / turn), horizon / _MAX_DEFAULT_STEPS)
+    return step
 
 
 def _gather(futures: list[Any]) -> list[ReachResult]:

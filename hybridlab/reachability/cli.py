@@ -174,12 +174,14 @@ def add_reach_parser(sub: argparse._SubParsersAction) -> argparse.ArgumentParser
                    help="stop the reachability analysis after this long: UNKNOWN with the "
                         "tightest bound so far")
     p.add_argument("--step", type=_seconds, metavar="DT",
-                   help="flowpipe time step (default: the horizon / 400)")
+                   help="flowpipe time step (default: the horizon / 400, or less for fast "
+                        "oscillations)")
     p.add_argument("--order", type=_seconds, metavar="K",
                    help="zonotope order kept after each step (default 20)")
     p.add_argument("--clustering", choices=("auto", "box", "none"),
-                   help="how the step sets that hit a guard are joined (default auto: into "
-                        "compact groups; box: all in one; none: not at all)")
+                   help="how the step sets that hit a guard are joined (default box: all in one "
+                        "box, in the state or principal axes; auto: into compact groups; "
+                        "none: not at all)")
     p.add_argument("--intersection", choices=("lp", "box"),
                    help="cut sets to a guard by LP (default) or by axis-aligned rows only")
     p.add_argument("--max-sets", type=_positive, dest="max_sets", metavar="N",
