@@ -3,21 +3,27 @@
 Usage (from the repository root)::
 
     .venv/bin/python benchmarks/reach/run.py [--only NAME] [--timeout SECONDS]
-                                             [--hylaa-python PATH] [--verbose]
+                                             [--hylaa-python PATH] [--cfg-step] [--verbose]
 
 Each benchmark is a SpaceEx model and ``.cfg`` in ``models/spaceex/`` (written from the
 published definition; source and published verdict in the file header). It is loaded
 with :func:`hybridlab.io.load_spaceex` and checked with
 :func:`hybridlab.verify.check_safety` (falsification by simulation, then flowpipes),
-using the ``.cfg``'s forbidden set, initial set, horizon, sampling time (as the reach
-step) and iteration bound (as ``max_jumps``). With ``--hylaa-python`` the Hylaa version
+using the ``.cfg``'s forbidden set, initial set, horizon and iteration bound (as
+``max_jumps``), and otherwise default options: the step is hybridlab's own choice. With
+``--cfg-step`` the ``.cfg``'s sampling time is the reach step, as for Hylaa, which
+always takes it. With ``--hylaa-python`` the Hylaa version
 of the same benchmark (``hylaa_models.py``) runs in a subprocess with that interpreter,
 a separate venv: Hylaa is never a dependency of hybridlab. With ``--timeout`` every
 hybridlab instance runs in a process of its own (this script with ``--worker NAME``), killed
 and reported ``TIMEOUT`` after that many seconds; the same limit then applies to Hylaa.
 The "tightest bound" column is the verdict's ``margin``: SAFE, the smallest proven margin;
 UNKNOWN, the lowest lower bound of a spec over the flowpipes; UNSAFE, the most negative
-margin of the counterexample. Nothing here is a test.
+margin of the counterexample. Times: "whole" is the whole process from its start
+(interpreter, imports, loading; measured by this script around the subprocess, so only
+with ``--timeout`` for hybridlab), "in-process" from the loaded tool to the verdict
+(hybridlab: loading the SpaceEx files and the check; Hylaa: building and running its
+automaton). Nothing here is a test.
 """
 
 from __future__ import annotations
@@ -85,19 +91,22 @@ BY_NAME = {b.name: b for b in BENCHMARKS}
 @dataclass(frozen=True)
 class Outcome:
     verdict: str  # SAFE, UNSAFE, UNKNOWN, ERROR, TIMEOUT, n/a
-    seconds: float | None
+    seconds: float | None  # in-process: from the loaded tool to the verdict
     reason: str
     margin: float | None = None  # the verdict's tightest bound, when it has one
+    whole: float | None = None  # the whole process, interpreter start-up and imports included
 
 
-def run_hybridlab(b: Benchmark) -> Outcome:
-    """Load and check one benchmark in this process."""
+def run_hybridlab(b: Benchmark, cfg_step: bool = False) -> Outcome:
+    """Load and check one benchmark in this process (the ``.cfg``'s step only if asked)."""
     start = time.perf_counter()
     try:
         problem = load_spaceex(ROOT / "models" / "spaceex" / b.xml,
                                ROOT / "models" / "spaceex" / b.cfg)
-        verdict = check_safety(problem.model, safe=problem.safe_specs(),
-                               **problem.reach_kwargs())
+        kwargs = problem.reach_kwargs()
+        if not cfg_step:
+            kwargs.pop("step", None)
+        verdict = check_safety(problem.model, safe=problem.safe_specs(), **kwargs)
     except Exception as exc:  # a benchmark report, not a library: show what failed
         return Outcome("ERROR", time.perf_counter() - start, f"{type(exc).__name__}: {exc}")
     margin = getattr(verdict, "margin", None)
@@ -105,7 +114,7 @@ def run_hybridlab(b: Benchmark) -> Outcome:
                    None if margin is None or not math.isfinite(margin) else float(margin))
 
 
-def run_hybridlab_isolated(b: Benchmark, timeout: float) -> Outcome:
+def run_hybridlab_isolated(b: Benchmark, timeout: float, cfg_step: bool = False) -> Outcome:
     """Check one benchmark in a process of its own; TIMEOUT after ``timeout`` seconds.
 
     The child is this script with ``--worker NAME`` (one JSON line back). It runs in a new
@@ -113,7 +122,8 @@ def run_hybridlab_isolated(b: Benchmark, timeout: float) -> Outcome:
     killed on timeout.
     """
     start = time.perf_counter()
-    proc = subprocess.Popen([sys.executable, str(Path(__file__).resolve()), "--worker", b.name],
+    proc = subprocess.Popen([sys.executable, str(Path(__file__).resolve()), "--worker", b.name]
+                            + (["--cfg-step"] if cfg_step else []),
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             start_new_session=True)
     try:
@@ -128,7 +138,8 @@ def run_hybridlab_isolated(b: Benchmark, timeout: float) -> Outcome:
         tail = (err.strip().splitlines() or [f"exit status {proc.returncode}"])[-1]
         return Outcome("ERROR", time.perf_counter() - start, tail)
     data = json.loads(lines[-1])
-    return Outcome(data["verdict"], data["time_s"], data["reason"], data["margin"])
+    return Outcome(data["verdict"], data["time_s"], data["reason"], data["margin"],
+                   whole=time.perf_counter() - start)
 
 
 def _kill_group(proc: subprocess.Popen) -> None:
@@ -138,8 +149,8 @@ def _kill_group(proc: subprocess.Popen) -> None:
         proc.kill()
 
 
-def _worker(name: str) -> int:
-    o = run_hybridlab(BY_NAME[name])
+def _worker(name: str, cfg_step: bool) -> int:
+    o = run_hybridlab(BY_NAME[name], cfg_step)
     print(json.dumps({"verdict": o.verdict, "time_s": o.seconds, "reason": o.reason,
                       "margin": o.margin}))
     return 0
@@ -150,6 +161,7 @@ def run_hylaa(b: Benchmark, python: str | None, timeout: float | None) -> Outcom
         return Outcome("n/a", None, "Hylaa handles affine dynamics only")
     if python is None:
         return Outcome("n/a", None, "no --hylaa-python given")
+    start = time.perf_counter()
     proc = subprocess.Popen([python, str(HERE / "hylaa_models.py"), b.name],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             start_new_session=True)
@@ -162,7 +174,11 @@ def run_hylaa(b: Benchmark, python: str | None, timeout: float | None) -> Outcom
     if proc.returncode != 0:
         return Outcome("ERROR", None, (err.strip().splitlines() or ["?"])[-1])
     data = json.loads(out.strip().splitlines()[-1])
-    return Outcome(data["verdict"], float(data["time_s"]), "")
+    return Outcome(data["verdict"], float(data["time_s"]), "", whole=time.perf_counter() - start)
+
+
+def _seconds(value: float | None) -> str:
+    return "-" if value is None else f"{value:.2f}"
 
 
 def _bound(margin: float | None) -> str:
@@ -177,28 +193,32 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--timeout", type=float, metavar="SECONDS",
                         help="run each hybridlab instance in a process of its own and report "
                              "TIMEOUT after this many seconds (also bounds Hylaa)")
+    parser.add_argument("--cfg-step", action="store_true", dest="cfg_step",
+                        help="give hybridlab the .cfg's sampling time as its step (Hylaa "
+                             "always takes it)")
     parser.add_argument("--worker", choices=[b.name for b in BENCHMARKS],
                         help=argparse.SUPPRESS)  # internal: the child of --timeout
     args = parser.parse_args(argv)
     if args.worker:
-        return _worker(args.worker)
+        return _worker(args.worker, args.cfg_step)
     if args.timeout is not None and not (math.isfinite(args.timeout) and args.timeout > 0):
         parser.error("--timeout must be a positive number of seconds")
     print(f"reach benchmarks, {time.strftime('%Y-%m-%d')}, {platform.processor() or '?'}, "
           f"Python {platform.python_version()}"
-          + ("" if args.timeout is None else f", timeout {args.timeout:g} s per instance"))
-    header = ("benchmark", "published", "hybridlab", "time [s]", "tightest bound", "Hylaa",
-              "time [s]")
+          + ("" if args.timeout is None else f", timeout {args.timeout:g} s per instance")
+          + (", hybridlab with the .cfg's step" if args.cfg_step else
+             ", hybridlab with default options"))
+    header = ("benchmark", "published", "hybridlab", "whole [s]", "in-process [s]",
+              "tightest bound", "Hylaa", "whole [s]", "in-process [s]")
     rows = []
     for b in BENCHMARKS:
         if args.only and b.name not in args.only:
             continue
-        o = (run_hybridlab(b) if args.timeout is None
-             else run_hybridlab_isolated(b, args.timeout))
+        o = (run_hybridlab(b, args.cfg_step) if args.timeout is None
+             else run_hybridlab_isolated(b, args.timeout, args.cfg_step))
         h = run_hylaa(b, args.hylaa_python, args.timeout)
-        rows.append((b.name, b.published, o.verdict,
-                     "-" if o.seconds is None else f"{o.seconds:.2f}", _bound(o.margin),
-                     h.verdict, "-" if h.seconds is None else f"{h.seconds:.2f}"))
+        rows.append((b.name, b.published, o.verdict, _seconds(o.whole), _seconds(o.seconds),
+                     _bound(o.margin), h.verdict, _seconds(h.whole), _seconds(h.seconds)))
         if args.verbose:
             print(f"{b.name}: hybridlab: {o.reason}", flush=True)
             if h.reason:

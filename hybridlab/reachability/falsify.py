@@ -375,6 +375,8 @@ class Falsification:
     incomplete_runs : int
         Runs that stopped before ``t_end`` (Zeno, invariant violation, failure).
     time_s : float
+    most_jumps : int
+        The most jumps in one simulated run.
     """
 
     counterexample: Counterexample | None
@@ -382,6 +384,7 @@ class Falsification:
     runs: int
     incomplete_runs: int
     time_s: float
+    most_jumps: int = 0
 
 
 class _Margins:
@@ -534,6 +537,7 @@ class FalsificationSearch:
         self._best_u: list[list[tuple[float, np.ndarray]]] = [[] for _ in self.specs]
         self._runs = 0
         self._incomplete = 0
+        self._most_jumps = 0
         self._time = 0.0
         self._found: Falsification | None = None
 
@@ -552,7 +556,7 @@ class FalsificationSearch:
         cx = stage()
         self._time += time.perf_counter() - started
         self._found = Falsification(cx, dict(self._lowest), self._runs, self._incomplete,
-                                    self._time)
+                                    self._time, self._most_jumps)
         return self._found
 
     def _sample(self) -> Counterexample | None:
@@ -582,6 +586,7 @@ class FalsificationSearch:
         x0, p = point
         result = self.problem.run(x0, p)
         self._runs += 1
+        self._most_jumps = max(self._most_jumps, len(result.jumps))
         if not result.status.ok:
             self._incomplete += 1
         out = [trajectory_margin(result, s, fns, p)

@@ -32,6 +32,9 @@ class ReachOptions:
         eigenvalues faster than ``1 / step`` are split by time scale and their
         fast part enclosed in closed form, so the step is not limited by
         stiffness (``docs/verification.md``, "Stiff modes").
+    dwell : float or None
+        Typical time between jumps, when known (:func:`hybridlab.verify.check_safety`
+        takes it from its simulations): the default step gives it at least 16 steps.
     max_jumps : int
         Longest run of jumps followed; a branch cut here makes the result
         incomplete.
@@ -87,6 +90,7 @@ class ReachOptions:
     step: float | None = None
     order: float = 20.0
     taylor_terms: int = 10
+    dwell: float | None = None
     max_jumps: int = 30
     clustering: str = "box"
     intersection: str = "lp"
@@ -102,6 +106,8 @@ class ReachOptions:
     def __post_init__(self) -> None:
         if self.step is not None and not (float(self.step) > 0 and float(self.step) < 1e300):
             raise ValueError(f"step must be a positive number (got {self.step!r})")
+        if self.dwell is not None and not (float(self.dwell) > 0 and float(self.dwell) < 1e300):
+            raise ValueError(f"dwell must be a positive number (got {self.dwell!r})")
         if not self.order >= 1:
             raise ValueError(f"order must be at least 1 (got {self.order!r})")
         if not (isinstance(self.taylor_terms, int) and self.taylor_terms >= 2):

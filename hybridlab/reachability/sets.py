@@ -336,8 +336,39 @@ class Zonotope:
             excess = P @ A.T - b
             inside = np.all(excess <= scale, axis=1)
         else:
-            inside = np.array([self._contains_lp(p, scale) for p in P], dtype=bool)
+            inside = self._witnessed(P, scale)
+            for i in np.flatnonzero(~inside):
+                inside[i] = self._contains_lp(P[i], scale)
         return inside[0] if single else inside
+
+    def _witnessed(self, P: np.ndarray, tol: float, rounds: int = 8) -> np.ndarray:
+        """Points for which factors ``b`` in ``[-1, 1]`` with ``|G b - (p - c)| <= tol``
+        are found without an LP: inside, with ``b`` as the witness.
+
+        The least-squares factors first; where some leave ``[-1, 1]`` they are clipped and
+        the residual is taken up by the others, for a few rounds (an active-set heuristic:
+        a point it does not settle goes to the LP)."""
+        G = self.generators
+        inside = np.zeros(len(P), dtype=bool)
+        if G.shape[1] == 0 or len(P) == 0:
+            return inside
+        D = (P - self.center).T
+        B = np.linalg.lstsq(G, D, rcond=None)[0]
+        inside[:] = (np.max(np.abs(B), axis=0) <= 1.0) & (
+            np.max(np.abs(G @ B - D), axis=0) <= tol)
+        for k in np.flatnonzero(~inside):
+            b = np.clip(B[:, k], -1.0, 1.0)
+            for _ in range(rounds):
+                residual = D[:, k] - G @ b
+                if np.max(np.abs(residual)) <= tol:
+                    inside[k] = True
+                    break
+                free = np.abs(b) < 1.0
+                if not free.any():
+                    break
+                b[free] += np.linalg.lstsq(G[:, free], residual, rcond=None)[0]
+                b = np.clip(b, -1.0, 1.0)
+        return inside
 
     def _contains_lp(self, p: np.ndarray, tol: float) -> bool:
         G = self.generators

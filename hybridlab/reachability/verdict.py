@@ -273,6 +273,10 @@ def check(
         options is not None and getattr(options, "clustering", "box") != "box")
     step_chosen = "step" in reach_overrides or getattr(options, "step", None) is not None
     overrides = dict(reach_overrides)
+    dwell_known = "dwell" in overrides or getattr(options, "dwell", None) is not None
+    if not (step_chosen or dwell_known) and found.most_jumps:
+        # the busiest simulated run's dwell sets the default step (see default_step)
+        overrides["dwell"] = (problem.t_end - problem.t_start) / (found.most_jumps + 1)
     budget = overrides.get("time_budget", getattr(options, "time_budget", None))
     if budget is not None and overrides.get("deadline",
                                             getattr(options, "deadline", None)) is None:
