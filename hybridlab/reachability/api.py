@@ -266,8 +266,9 @@ def default_step(system: System, horizon: float, dwell: float | None = None) -> 
     90 rad/s, horizon 20) this gives 0.0056 instead of 0.05. A set that crosses a guard is
     joined over the steps of the crossing; with steps long against the dwell, the sets
     entering each mode grow from cycle to cycle instead of settling into a fixpoint (the
-    two rooms, a jump every 0.68 min: SAFE in 170 s at a step of 0.05, no answer in 10 min
-    at 0.1, 0.15 or 0.45).
+    two rooms, a jump every 0.68 min: SAFE in 170 s at a step of 0.05; UNKNOWN after 10 min
+    at 0.1, the entry sets having grown until a bound failed; no answer in 7 min at 0.15 or
+    0.45).
 
     Examples
     --------
