@@ -82,7 +82,9 @@ class SpecBound:
         """``in mode 'm' for t in [a, b]`` (or an empty string)."""
         if self.mode is None or self.t is None:
             return ""
-        return f"in mode {self.mode!r} for t in [{self.t[0]:.6g}, {self.t[1]:.6g}]"
+        # the sets' times are widened by an ulp for soundness: show 0 as 0, not -5e-324
+        lo, hi = (0.0 if abs(v) < 1e-300 else v for v in self.t)
+        return f"in mode {self.mode!r} for t in [{lo:.6g}, {hi:.6g}]"
 
     def as_dict(self) -> dict[str, Any]:
         """A JSON-ready mapping."""
