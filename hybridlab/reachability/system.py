@@ -60,7 +60,7 @@ def jacobian(exprs: Sequence[sp.Expr], syms: Sequence[sp.Symbol]) -> sp.Matrix:
     """
     rows = []
     for e in exprs:
-        terms = sp.Add.make_args(sp.sympify(e))
+        terms = sp.Add.make_args(e)
         term_syms = [t.free_symbols for t in terms]
         row = []
         for w in syms:
