@@ -21,7 +21,8 @@ class ReachOptions:
         and the linearisation remainder shrink with it) and slower (linear in
         the number of steps). ``None``: the horizon divided by 400, shortened so
         that no lightly damped oscillation of an affine mode turns more than half
-        a radian per step (:func:`~hybridlab.reachability.api.default_step`).
+        a radian per step and that a known ``dwell`` has 16 steps
+        (:func:`~hybridlab.reachability.api.default_step`).
     order : float
         Zonotope order kept after each step (generators per dimension); excess
         generators are boxed (Girard's method). Higher is tighter and slower.
