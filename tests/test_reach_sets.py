@@ -143,6 +143,14 @@ def test_general_intersection_bounds_by_lp():
     assert Z.bounds_within([[1.0, 0.0]], [-2.0]) is None
 
 
+def test_rows_the_whole_set_satisfies_are_dropped_before_the_cut():
+    Z = Zonotope([0.0, 0.0], [[1.0, 0.5], [0.0, 1.0]])
+    slab = Z.bounds_within([[1.0, 0.0]], [0.2])  # one row: the LP-free slab
+    with_more = Z.bounds_within([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]], [0.2, 5.0, 10.0])
+    assert np.array_equal(slab, with_more)  # the two rows Z satisfies changed nothing
+    assert np.array_equal(Z.bounds_within([[0.0, 1.0]], [5.0]), Z.bounds())
+
+
 # ----- boxes and polytopes ----------------------------------------------------------------------
 def test_box_and_polytope_agree_on_a_square():
     box = Box([0.0, 0.0], [1.0, 2.0])

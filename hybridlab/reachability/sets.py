@@ -506,8 +506,9 @@ class Zonotope:
                       ) -> np.ndarray | None:
         """Tight bounds of ``Z ∩ {A x <= b}``.
 
-        Rows that are all parallel form one slab (:meth:`bounds_in_slab`, no
-        LP); otherwise by ``2 n`` LPs over the generator factors (HiGHS).
+        Rows the zonotope satisfies everywhere are dropped; rows that are all
+        parallel form one slab (:meth:`bounds_in_slab`, no LP); otherwise by
+        ``2 n`` LPs over the generator factors (HiGHS).
         Returns ``None`` when the intersection is empty. ``dims`` selects the
         coordinates to bound by LP (all by default).
         """
@@ -518,6 +519,12 @@ class Zonotope:
         out = self.bounds().copy()
         if m == 0:
             return out if np.all(A @ c <= b + 1e-12 * (1 + np.abs(b))) else None
+        # rows the whole zonotope satisfies (support rounded up) cut nothing; what is left
+        # is often one slab, bounded without an LP
+        active = self.supports(A) > b
+        if not active.any():
+            return out
+        A, b = A[active], b[active]
         slab = _as_slab(A, b)
         if slab is not None:
             return self.bounds_in_slab(*slab)
