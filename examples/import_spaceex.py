@@ -25,8 +25,7 @@ import sys
 from pathlib import Path
 
 import hybridlab
-from hybridlab.io import load_spaceex
-from hybridlab.io.cli import problem_header
+from hybridlab.io import load_spaceex, problem_header
 from hybridlab.verify import check_safety
 
 HERE = Path(__file__).resolve().parents[1] / "models" / "spaceex"

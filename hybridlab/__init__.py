@@ -5,50 +5,57 @@ model -> symbolic -> simulate -> graph -> cli, and lower layers never import
 higher ones.
 """
 
-from hybridlab.ensemble import SweepResult, simulate_many, sweep
-from hybridlab.errors import (
-    CompilationError,
-    ExpressionError,
-    HybridlabError,
-    ModelError,
-    SimulationError,
-    ZenoError,
-)
-from hybridlab.graph import GraphReport, check_mode_graph, mode_graph, to_dot
-from hybridlab.io import load_spaceex
-from hybridlab.model import (
-    Initial,
-    Mechanics,
-    Mode,
-    Model,
-    Parameter,
-    Scenario,
-    Schedule,
-    State,
-    Transition,
-    dumps_model,
-    load_model,
-    loads_model,
-    model_from_dict,
-    model_json_schema,
-)
-from hybridlab.reachability import (
-    Box,
-    Polytope,
-    ReachOptions,
-    ReachResult,
-    ReachSet,
-    Zonotope,
-    reach,
-)
-from hybridlab.simulation import (
-    Event,
-    SimulationOptions,
-    SimulationResult,
-    Status,
-    simulate,
-)
-from hybridlab.symbolic import CompiledModel, compile_model
+from typing import TYPE_CHECKING
+
+from hybridlab._lazy import lazy_exports
+
+if TYPE_CHECKING:  # the public names, loaded on first use (hybridlab._lazy)
+    from hybridlab.ensemble import SweepResult, simulate_many, sweep
+    from hybridlab.errors import (
+        CompilationError,
+        ExpressionError,
+        HybridlabError,
+        ModelError,
+        SimulationError,
+        ZenoError,
+    )
+    from hybridlab.graph import GraphReport, check_mode_graph, mode_graph, to_dot
+    from hybridlab.io import load_spaceex
+    from hybridlab.model import (
+        Initial,
+        Mechanics,
+        Mode,
+        Model,
+        Parameter,
+        Scenario,
+        Schedule,
+        State,
+        Transition,
+        dumps_model,
+        load_model,
+        loads_model,
+        model_from_dict,
+        model_json_schema,
+    )
+    from hybridlab.reachability import (
+        Box,
+        Polytope,
+        ReachOptions,
+        ReachResult,
+        ReachSet,
+        Zonotope,
+        reach,
+    )
+    from hybridlab.simulation import (
+        Event,
+        SimulationOptions,
+        SimulationResult,
+        Status,
+        simulate,
+    )
+    from hybridlab.symbolic import CompiledModel, compile_model
+
+__getattr__, __dir__ = lazy_exports(__name__, __file__)
 
 __version__ = "0.1.0"
 

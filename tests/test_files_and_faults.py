@@ -73,7 +73,7 @@ def test_an_internal_error_is_one_line_and_a_report(monkeypatch, capsys):
     def broken(_args):
         raise RuntimeError("a bug")
 
-    monkeypatch.setattr(cli, "_cmd_check", broken)
+    monkeypatch.setattr(cli.check, "_run", broken)
     code = cli.main(["check", "models/bouncing_ball.toml"])
     err = capsys.readouterr().err
     assert code == cli.EXIT_BUG == 70
@@ -90,7 +90,7 @@ def test_ctrl_c_in_a_command_exits_130_in_one_line(monkeypatch, capsys):
     def interrupted(_args):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(cli, "_cmd_check", interrupted)
+    monkeypatch.setattr(cli.check, "_run", interrupted)
     assert cli.main(["check", "models/bouncing_ball.toml"]) == cli.EXIT_INTERRUPTED == 130
     assert capsys.readouterr().err == "hybridlab: interrupted\n"
 

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 import hybridlab
+from hybridlab.cli.identify import add_parser as add_identify_parser
 from hybridlab.identify import DataError, SensorEvents, fit_events, passages, write_csv
-from hybridlab.identify.cli import add_identify_parser
 from hybridlab.identify.synthetic import sensor_events
 
 MODEL = Path(__file__).resolve().parents[1] / "models" / "trolley.toml"

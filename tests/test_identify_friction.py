@@ -8,8 +8,8 @@ import json
 import numpy as np
 import pytest
 
+from hybridlab.cli.identify import add_parser as add_identify_parser
 from hybridlab.identify import DataError, FrictionData, fit_friction, read_friction_csv, write_csv
-from hybridlab.identify.cli import add_identify_parser
 from hybridlab.identify.synthetic import friction_runs
 
 C, D = 17.41, 257.0

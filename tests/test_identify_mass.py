@@ -8,6 +8,7 @@ import json
 import numpy as np
 import pytest
 
+from hybridlab.cli.identify import add_parser as add_identify_parser
 from hybridlab.identify import (
     DataError,
     FrequencyData,
@@ -16,7 +17,6 @@ from hybridlab.identify import (
     read_frequency_csv,
     write_csv,
 )
-from hybridlab.identify.cli import add_identify_parser
 from hybridlab.identify.synthetic import frequency_response
 
 M, D = 3.5, 257.0

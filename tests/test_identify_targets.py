@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 import hybridlab
+from hybridlab.cli.identify import add_parser as add_identify_parser
 from hybridlab.identify import Target, TargetError, fit_targets, read_targets
-from hybridlab.identify.cli import add_identify_parser
 from hybridlab.identify.summary import continuous_count, level_crossings
 from hybridlab.identify.targets import target_statistic
 

@@ -8,7 +8,7 @@ from pathlib import Path
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from hybridlab._cliargs import finite_number, split_assignment
+from hybridlab.cli._args import finite_number, split_assignment
 from hybridlab.identify.data import read_events_csv, read_frequency_csv, read_friction_csv
 from hybridlab.identify.errors import DataError
 from hybridlab.io import SpaceExError, loads_spaceex

@@ -7,11 +7,18 @@ pool over every core by default; a ``distributed.Client`` for several
 machines) and return a :class:`SweepResult`.
 """
 
-from hybridlab.ensemble.api import simulate_many, sweep
-from hybridlab.ensemble.errors import SweepError
-from hybridlab.ensemble.observables import REDUCTIONS, Count, Observable
-from hybridlab.ensemble.progress import ProgressBar
-from hybridlab.ensemble.result import Pivot, SweepResult
+from typing import TYPE_CHECKING
+
+from hybridlab._lazy import lazy_exports
+
+if TYPE_CHECKING:  # the public names, loaded on first use (hybridlab._lazy)
+    from hybridlab.ensemble.api import simulate_many, sweep
+    from hybridlab.ensemble.errors import SweepError
+    from hybridlab.ensemble.observables import REDUCTIONS, Count, Observable
+    from hybridlab.ensemble.progress import ProgressBar
+    from hybridlab.ensemble.result import Pivot, SweepResult
+
+__getattr__, __dir__ = lazy_exports(__name__, __file__)
 
 __all__ = [
     "REDUCTIONS",

@@ -16,32 +16,45 @@ standard errors, residuals, a text table, a JSON summary and a plot:
 
 Data come in as :class:`FrictionData`, :class:`FrequencyData` and :class:`SensorEvents`
 (read from CSV by the ``read_*_csv`` functions); :mod:`hybridlab.identify.synthetic`
-makes realistic data from known truths; :mod:`hybridlab.identify.cli` holds the
+makes realistic data from known truths; :mod:`hybridlab.cli.identify` holds the
 ``identify`` subcommands.
 """
 
-from hybridlab.identify.data import (
-    FrequencyData,
-    FrictionData,
-    SensorEvents,
-    read_events_csv,
-    read_frequency_csv,
-    read_friction_csv,
-    write_csv,
-)
-from hybridlab.identify.errors import DataError, TargetError
-from hybridlab.identify.events import EventFit, Passages, edges_from_result, fit_events, passages
-from hybridlab.identify.frequency import (
-    Eq4Fit,
-    MassFit,
-    SlopeRegion,
-    find_slope_region,
-    fit_mass,
-    local_slopes,
-)
-from hybridlab.identify.friction import FrictionFit, LineFit, fit_friction
-from hybridlab.identify.target_fit import TargetFit, fit_targets
-from hybridlab.identify.targets import Target, read_targets
+from typing import TYPE_CHECKING
+
+from hybridlab._lazy import lazy_exports
+
+if TYPE_CHECKING:  # the public names, loaded on first use (hybridlab._lazy)
+    from hybridlab.identify.data import (
+        FrequencyData,
+        FrictionData,
+        SensorEvents,
+        read_events_csv,
+        read_frequency_csv,
+        read_friction_csv,
+        write_csv,
+    )
+    from hybridlab.identify.errors import DataError, TargetError
+    from hybridlab.identify.events import (
+        EventFit,
+        Passages,
+        edges_from_result,
+        fit_events,
+        passages,
+    )
+    from hybridlab.identify.frequency import (
+        Eq4Fit,
+        MassFit,
+        SlopeRegion,
+        find_slope_region,
+        fit_mass,
+        local_slopes,
+    )
+    from hybridlab.identify.friction import FrictionFit, LineFit, fit_friction
+    from hybridlab.identify.target_fit import TargetFit, fit_targets
+    from hybridlab.identify.targets import Target, read_targets
+
+__getattr__, __dir__ = lazy_exports(__name__, __file__)
 
 __all__ = [
     "DataError",

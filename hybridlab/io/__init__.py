@@ -4,14 +4,22 @@ The importers build ordinary :class:`hybridlab.Model` objects; every expression 
 through hybridlab's whitelist parser, never ``eval``.
 """
 
-from hybridlab.io.spaceex import (
-    ConstraintSet,
-    SpaceExError,
-    SpaceExOptions,
-    SpaceExProblem,
-    load_spaceex,
-    loads_spaceex,
-)
+from typing import TYPE_CHECKING
+
+from hybridlab._lazy import lazy_exports
+
+if TYPE_CHECKING:  # the public names, loaded on first use (hybridlab._lazy)
+    from hybridlab.io._sxheader import problem_header
+    from hybridlab.io.spaceex import (
+        ConstraintSet,
+        SpaceExError,
+        SpaceExOptions,
+        SpaceExProblem,
+        load_spaceex,
+        loads_spaceex,
+    )
+
+__getattr__, __dir__ = lazy_exports(__name__, __file__)
 
 __all__ = [
     "ConstraintSet",
@@ -20,4 +28,5 @@ __all__ = [
     "SpaceExProblem",
     "load_spaceex",
     "loads_spaceex",
+    "problem_header",
 ]

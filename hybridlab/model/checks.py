@@ -6,12 +6,12 @@ raises :class:`~hybridlab.errors.ModelError` naming the key path and token.
 
 from __future__ import annotations
 
+import graphlib
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-import networkx as nx
 import sympy as sp
 
 from hybridlab.errors import ExpressionError, ModelError
@@ -179,26 +179,21 @@ def _definitions(texts: Mapping[str, str], base: dict[str, sp.Expr],
     """Parse definitions in dependency order; a cycle is an error."""
     placeholders = {name: sp.Symbol(f"_def_{name}", real=True) for name in texts}
     names = {**base, **placeholders}
-    graph = nx.DiGraph()
+    uses: dict[str, list[str]] = {}
     raw: dict[str, sp.Expr] = {}
     for name, text in texts.items():
         expr = _parse(text, names, f"{prefix}.{name}")
         raw[name] = expr
-        graph.add_node(name)
-        for other, symbol in placeholders.items():
-            if expr.has(symbol):
-                graph.add_edge(other, name)
+        uses[name] = [other for other, symbol in placeholders.items() if expr.has(symbol)]
     try:
-        cycle = nx.find_cycle(graph)
-    except nx.NetworkXNoCycle:
-        cycle = None
-    if cycle:
-        names_in_cycle = " -> ".join([edge[0] for edge in cycle] + [cycle[0][0]])
-        raise _fail("definitions refer to each other in a cycle", f"{prefix}.{cycle[0][1]}",
-                    names_in_cycle)
+        order = list(graphlib.TopologicalSorter(uses).static_order())
+    except graphlib.CycleError as exc:
+        cycle = exc.args[1]  # each name used by the next; the first name again at the end
+        raise _fail("definitions refer to each other in a cycle", f"{prefix}.{cycle[1]}",
+                    " -> ".join(cycle)) from None
     resolved: dict[str, sp.Expr] = {}
     sizes: dict[sp.Basic, float] = {}
-    for name in nx.topological_sort(graph):
+    for name in order:
         resolved[name] = raw[name].xreplace({placeholders[k]: v for k, v in resolved.items()})
         size = tree_size(resolved[name], sizes)
         if size > MAX_TREE_NODES:

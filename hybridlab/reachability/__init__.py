@@ -12,12 +12,19 @@ linearisation), :mod:`~.hybrid` (guards, resets, waiting list),
 :mod:`~.result`, :mod:`~.options`, :mod:`~.plot`.
 """
 
-from hybridlab.reachability.api import ReachError, reach
-from hybridlab.reachability.linear import StepError
-from hybridlab.reachability.options import ReachOptions
-from hybridlab.reachability.result import ReachResult, ReachSet
-from hybridlab.reachability.sets import Box, Polytope, SetError, Zonotope, as_zonotope
-from hybridlab.symbolic.intervals import Interval, IntervalError, IntervalFunction
+from typing import TYPE_CHECKING
+
+from hybridlab._lazy import lazy_exports
+
+if TYPE_CHECKING:  # the public names, loaded on first use (hybridlab._lazy)
+    from hybridlab.reachability.api import ReachError, reach
+    from hybridlab.reachability.linear import StepError
+    from hybridlab.reachability.options import ReachOptions
+    from hybridlab.reachability.result import ReachResult, ReachSet
+    from hybridlab.reachability.sets import Box, Polytope, SetError, Zonotope, as_zonotope
+    from hybridlab.symbolic.intervals import Interval, IntervalError, IntervalFunction
+
+__getattr__, __dir__ = lazy_exports(__name__, __file__)
 
 __all__ = [
     "Box",

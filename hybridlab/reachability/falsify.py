@@ -33,6 +33,7 @@ import numpy as np
 from scipy import optimize
 
 from hybridlab.model.schema import Model
+from hybridlab.reachability.options import FalsifyOptions
 from hybridlab.reachability.spec import Spec
 from hybridlab.simulation.api import simulate
 from hybridlab.simulation.options import SimulationOptions
@@ -253,42 +254,6 @@ def resolve_problem(
 
 
 # ------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class FalsifyOptions:
-    """Budget and seed of the falsification search.
-
-    Attributes
-    ----------
-    samples : int
-        Latin-hypercube samples of the uncertain box.
-    max_corner_dims : int
-        Up to this many uncertain dimensions every corner is simulated;
-        beyond it ``corners`` random corners are.
-    corners : int
-        Random corners when there are more dimensions than ``max_corner_dims``.
-    local_evals : int
-        Simulations each local optimisation may spend (0: no local search).
-    local_starts : int
-        Local optimisations per spec, from its best samples.
-    seed : int
-        Seed of the ``numpy.random.Generator`` (the search is deterministic).
-    """
-
-    samples: int = 16
-    max_corner_dims: int = 5
-    corners: int = 16
-    local_evals: int = 40
-    local_starts: int = 1
-    seed: int = 0
-
-    def __post_init__(self) -> None:
-        for name in ("samples", "max_corner_dims", "corners", "local_evals", "local_starts"):
-            value = getattr(self, name)
-            if not isinstance(value, int) or value < 0:
-                raise ValueError(f"FalsifyOptions.{name} must be a non-negative integer "
-                                 f"(got {value!r})")
-
-
 @dataclass(frozen=True)
 class Counterexample:
     """A simulated trajectory from the initial set that violates a spec.

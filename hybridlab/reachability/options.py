@@ -1,11 +1,11 @@
-"""Settings of :func:`hybridlab.reach`."""
+"""Settings of :func:`hybridlab.reach` and of the falsification search."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
-__all__ = ["ReachOptions"]
+__all__ = ["FalsifyOptions", "ReachOptions"]
 
 _CLUSTERING = ("auto", "box", "none")
 
@@ -141,3 +141,39 @@ class ReachOptions:
             raise TypeError(f"unknown reach option(s): {', '.join(unknown)}; expected one of: "
                             f"{', '.join(sorted(known))}")
         return replace(self, **changes)
+
+
+@dataclass(frozen=True)
+class FalsifyOptions:
+    """Budget and seed of the falsification search.
+
+    Attributes
+    ----------
+    samples : int
+        Latin-hypercube samples of the uncertain box.
+    max_corner_dims : int
+        Up to this many uncertain dimensions every corner is simulated;
+        beyond it ``corners`` random corners are.
+    corners : int
+        Random corners when there are more dimensions than ``max_corner_dims``.
+    local_evals : int
+        Simulations each local optimisation may spend (0: no local search).
+    local_starts : int
+        Local optimisations per spec, from its best samples.
+    seed : int
+        Seed of the ``numpy.random.Generator`` (the search is deterministic).
+    """
+
+    samples: int = 16
+    max_corner_dims: int = 5
+    corners: int = 16
+    local_evals: int = 40
+    local_starts: int = 1
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("samples", "max_corner_dims", "corners", "local_evals", "local_starts"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or value < 0:
+                raise ValueError(f"FalsifyOptions.{name} must be a non-negative integer "
+                                 f"(got {value!r})")

@@ -1,6 +1,6 @@
-"""The ``sweep`` subcommand, ready to be attached to the main command line.
+"""``hybridlab sweep``: many runs over a grid, one CSV row per run.
 
-``add_sweep_parser(subparsers)`` adds::
+``add_parser(subparsers)`` adds::
 
     sweep MODEL --grid NAME=LO:HI:N [--grid NAME=V1,V2,...] [--value NAME=V ...]
           [--scenario S] [--t-end T] [--observe NAME=[REDUCTION:]EXPR ...]
@@ -16,19 +16,22 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
-from hybridlab._cliargs import finite_number, split_assignment
-from hybridlab.ensemble.api import sweep
+from hybridlab.cli._args import (
+    EXIT_INCOMPLETE,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    finite_number,
+    split_assignment,
+)
 from hybridlab.ensemble.errors import SweepError
-from hybridlab.ensemble.observables import Count, Observable
-from hybridlab.ensemble.spec import check_run_count
-from hybridlab.model.loader import load_model
 from hybridlab.simulation.options import METHODS
 
-__all__ = ["add_sweep_parser", "parse_count", "parse_grid", "parse_observe"]
+if TYPE_CHECKING:
+    from hybridlab.ensemble.observables import Count, Observable
+
+__all__ = ["add_parser", "parse_count", "parse_grid", "parse_observe"]
 
 
 def _split(item: str, option: str) -> tuple[str, str]:
@@ -52,6 +55,10 @@ def parse_grid(items: list[str] | None) -> dict[str, list[float]]:
     ...
     hybridlab.ensemble.errors.SweepError: --grid a: expected LO:HI:N or V1,V2,... (got '0:1')
     """
+    import numpy as np
+
+    from hybridlab.ensemble.spec import check_run_count
+
     grid: dict[str, list[float]] = {}
     for item in items or ():
         name, spec = _split(item, "--grid")
@@ -85,6 +92,8 @@ def parse_observe(items: list[str] | None) -> dict[str, Observable]:
     >>> [(o.reduction, o.expression, o.time) for o in obs.values()]
     [('max', 'abs(v)', None), ('final', 'h', None), ('at', 'h', 2.5)]
     """
+    from hybridlab.ensemble.observables import Observable
+
     out: dict[str, Observable] = {}
     for item in items or ():
         name, spec = _split(item, "--observe")
@@ -109,6 +118,8 @@ def parse_count(item: str) -> Count:
     >>> parse_count("bounce").column
     'count:bounce'
     """
+    from hybridlab.ensemble.observables import Count
+
     name, sep, spec = item.partition("=")
     if not sep:
         name, spec = "", item
@@ -120,6 +131,9 @@ def parse_count(item: str) -> Count:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from hybridlab.ensemble.api import sweep
+    from hybridlab.model.loader import load_model
+
     out = Path(args.out)
     if out.suffix.lower() != ".csv":
         raise SweepError(f"--out must end in .csv (got {args.out!r})")
@@ -160,23 +174,23 @@ def _run(args: argparse.Namespace) -> int:
     print(f"wrote {args.out}")
     if table.interrupted:
         print("interrupted (Ctrl-C): the runs that had not finished have status INTERRUPTED")
-        return 130
-    return 0 if not failed else 3
+        return EXIT_INTERRUPTED
+    return EXIT_OK if not failed else EXIT_INCOMPLETE
 
 
-def add_sweep_parser(subparsers: Any) -> argparse.ArgumentParser:
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Add ``sweep`` to an argparse ``subparsers`` object.
 
     Examples
     --------
     >>> parser = argparse.ArgumentParser(prog="hybridlab")
-    >>> _ = add_sweep_parser(parser.add_subparsers(dest="command"))
+    >>> _ = add_parser(parser.add_subparsers(dest="command"))
     >>> args = parser.parse_args(["sweep", "ball.toml", "--grid", "e=0.5:0.9:5",
     ...                           "--out", "table.csv"])
     >>> args.run.__name__, args.grid
     ('_run', ['e=0.5:0.9:5'])
     """
-    p = subparsers.add_parser(
+    p: argparse.ArgumentParser = subparsers.add_parser(
         "sweep", help="simulate a model over a grid of parameters/initial states, write CSV",
         description="Simulate a model over a full-factorial grid of parameters and initial "
                     "states, in parallel, and write one CSV row per run (docs/sweeps.md).")

@@ -1,4 +1,4 @@
-"""Parsing of command-line values shared by the subcommands (``NAME=VALUE``, numbers).
+"""What the subcommands share: the parser class and parsing of values (``NAME=VALUE``, numbers).
 
 Every error is one line naming the option (and the name, where there is one) and
 the offending text: ``--set g: 'abc' is not a number``. The caller chooses the
@@ -8,9 +8,33 @@ keeps raising its own kind (``SweepError`` for ``sweep``, ...).
 
 from __future__ import annotations
 
+import argparse
 import math
+from collections.abc import Sequence
+from typing import NoReturn
 
-__all__ = ["finite_number", "require_finite", "split_assignment"]
+__all__ = ["EXIT_BUG", "EXIT_FINDINGS", "EXIT_INCOMPLETE", "EXIT_INTERNAL", "EXIT_INTERRUPTED",
+           "EXIT_OK", "EXIT_USAGE", "Parser", "UsageError", "assignments", "finite_number",
+           "require_finite", "split_assignment"]
+
+#: exit codes: success; an internal error; a user error (one line on stderr); a run that
+#: ended early (or a verdict of UNKNOWN); ``graph --check`` findings
+EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INCOMPLETE, EXIT_FINDINGS = 0, 1, 2, 3, 4
+#: the shell's code for a process ended by SIGINT; the partial result is still printed
+EXIT_INTERRUPTED = 130
+#: an unexpected internal error (a bug in hybridlab): sysexits' EX_SOFTWARE
+EXIT_BUG = 70
+
+
+class UsageError(ValueError):
+    """A wrong command line: printed as one line, exit code 2."""
+
+
+class Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (:class:`UsageError`), not usage + message."""
+
+    def error(self, message: str) -> NoReturn:
+        raise UsageError(message)
 
 
 def split_assignment(item: str, option: str, *, form: str = "NAME=VALUE",
@@ -83,3 +107,22 @@ def require_finite(value: float | None, option: str, *,
     if value is not None and not math.isfinite(value):
         raise error(f"{option}: {value!r} is not a finite number")
     return value
+
+
+def assignments(items: Sequence[str] | None, option: str) -> dict[str, float]:
+    """``NAME=VALUE`` items as finite numbers by name.
+
+    Examples
+    --------
+    >>> assignments(["g=9.81", "e = 0.5"], "--set")
+    {'g': 9.81, 'e': 0.5}
+    >>> assignments(["g=x"], "--set")
+    Traceback (most recent call last):
+    ...
+    hybridlab.cli._args.UsageError: --set g: 'x' is not a number
+    """
+    out: dict[str, float] = {}
+    for item in items or ():
+        name, value = split_assignment(item, option, error=UsageError)
+        out[name] = finite_number(value, f"{option} {name}", error=UsageError)
+    return out

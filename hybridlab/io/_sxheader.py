@@ -1,24 +1,11 @@
-"""The ``import`` subcommand, ready to be attached to the main command line.
-
-``add_import_parser(subparsers)`` adds::
-
-    import spaceex MODEL.xml [--cfg FILE.cfg] [--system ID] [-o model.toml]
-
-It prints the imported model as TOML (headed by comments giving the initial set, the
-forbidden set and the horizon from the ``.cfg``) or writes it to ``-o``. User errors
-are raised as hybridlab errors (``ValueError``) for the caller to print in one line.
-"""
+"""The comment lines heading an imported SpaceEx model: what a model file cannot hold."""
 
 from __future__ import annotations
 
-import argparse
-
-from hybridlab._files import replace_text
 from hybridlab._text import printable
-from hybridlab.io.spaceex import ConstraintSet, SpaceExProblem, load_spaceex
-from hybridlab.model.loader import dumps_model
+from hybridlab.io.spaceex import ConstraintSet, SpaceExProblem
 
-__all__ = ["add_import_parser", "problem_header"]
+__all__ = ["problem_header"]
 
 
 def problem_header(problem: SpaceExProblem) -> str:
@@ -26,6 +13,7 @@ def problem_header(problem: SpaceExProblem) -> str:
 
     Examples
     --------
+    >>> from hybridlab.io import load_spaceex
     >>> p = load_spaceex("models/spaceex/bouncing_ball.xml",
     ...                  "models/spaceex/bouncing_ball.cfg")
     >>> print(problem_header(p))
@@ -64,26 +52,3 @@ def problem_header(problem: SpaceExProblem) -> str:
     return "\n".join("# " + printable(line[2:]) for line in lines)
 
 
-def _run_spaceex(args: argparse.Namespace) -> int:
-    problem = load_spaceex(args.model, args.cfg, system=args.system)
-    text = problem_header(problem) + "\n" + dumps_model(problem.model)
-    if args.out:
-        replace_text(args.out, text)
-        print(f"wrote {args.out}")
-    else:
-        print(text, end="")
-    return 0
-
-
-def add_import_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    """Attach ``import spaceex`` to the subparsers ``sub`` of the main command line."""
-    imp = sub.add_parser("import", help="convert a model from another format to TOML")
-    formats = imp.add_subparsers(dest="format", required=True,
-                                 parser_class=type(imp))
-    sx = formats.add_parser("spaceex", help="a SpaceEx XML model (and its .cfg)")
-    sx.add_argument("model", help="the SpaceEx model file (.xml)")
-    sx.add_argument("--cfg", help="the SpaceEx configuration file (.cfg)")
-    sx.add_argument("--system", help="the component to import (default: the .cfg's "
-                                     "'system', else the component nobody binds)")
-    sx.add_argument("-o", "--out", help="write the TOML model to this file")
-    sx.set_defaults(run=_run_spaceex)

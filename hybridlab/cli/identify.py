@@ -1,6 +1,6 @@
-"""The ``identify`` subcommands, ready to be attached to the main command line.
+"""``hybridlab identify``: parameters from measured data.
 
-``add_identify_parser(subparsers)`` adds::
+``add_parser(subparsers)`` adds::
 
     identify friction DATA.csv [--v-min V] [--out FILE.json] [--plot FILE.png]
     identify mass DATA.csv [--slope-tol TOL] [--out FILE.json] [--plot FILE.png]
@@ -18,19 +18,14 @@ import argparse
 import contextlib
 from typing import Any
 
-from hybridlab._cliargs import finite_number, split_assignment
-from hybridlab.identify._report import save_figure, write_json
-from hybridlab.identify.data import read_events_csv, read_frequency_csv, read_friction_csv
-from hybridlab.identify.events import fit_events
-from hybridlab.identify.frequency import fit_mass
-from hybridlab.identify.friction import fit_friction
-from hybridlab.identify.target_fit import fit_targets
-from hybridlab.identify.targets import read_targets
+from hybridlab.cli._args import EXIT_OK, finite_number, split_assignment
 
-__all__ = ["add_identify_parser", "main"]
+__all__ = ["add_parser"]
 
 
 def _finish(result: Any, args: argparse.Namespace) -> int:
+    from hybridlab.identify._report import save_figure, write_json
+
     print(result.table())
     if args.out:
         write_json(args.out, result.as_dict())
@@ -38,14 +33,20 @@ def _finish(result: Any, args: argparse.Namespace) -> int:
     if args.plot:
         save_figure(result.plot(), args.plot)
         print(f"wrote {args.plot}")
-    return 0
+    return EXIT_OK
 
 
 def _run_friction(args: argparse.Namespace) -> int:
+    from hybridlab.identify.data import read_friction_csv
+    from hybridlab.identify.friction import fit_friction
+
     return _finish(fit_friction(read_friction_csv(args.data), v_min=args.v_min), args)
 
 
 def _run_mass(args: argparse.Namespace) -> int:
+    from hybridlab.identify.data import read_frequency_csv
+    from hybridlab.identify.frequency import fit_mass
+
     return _finish(fit_mass(read_frequency_csv(args.data), slope_tol=args.slope_tol,
                             window_decades=args.window), args)
 
@@ -63,6 +64,9 @@ def _numbers(items: list[str], option: str) -> dict[str, float]:
 
 
 def _run_events(args: argparse.Namespace) -> int:
+    from hybridlab.identify.data import read_events_csv
+    from hybridlab.identify.events import fit_events
+
     sensors = {}
     for key, value in _pairs(args.sensor, "--sensor").items():
         names = [n.strip() for n in value.split(",")]
@@ -88,6 +92,9 @@ def _run_events(args: argparse.Namespace) -> int:
 
 
 def _run_targets(args: argparse.Namespace) -> int:
+    from hybridlab.identify.target_fit import fit_targets
+    from hybridlab.identify.targets import read_targets
+
     fit = [n.strip() for n in args.fit.split(",") if n.strip()]
     guess = _numbers(args.initial, "--initial")
     params = _numbers(args.param, "--param")
@@ -105,7 +112,7 @@ def _outputs(parser: argparse.ArgumentParser) -> None:
                         "(needs matplotlib)")
 
 
-def add_identify_parser(subparsers: Any) -> argparse.ArgumentParser:
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Add ``identify {friction,mass,events,targets}`` to an argparse ``subparsers`` object.
 
     Parameters
@@ -121,12 +128,12 @@ def add_identify_parser(subparsers: Any) -> argparse.ArgumentParser:
     Examples
     --------
     >>> parser = argparse.ArgumentParser(prog="hybridlab")
-    >>> _ = add_identify_parser(parser.add_subparsers(dest="command"))
+    >>> _ = add_parser(parser.add_subparsers(dest="command"))
     >>> args = parser.parse_args(["identify", "friction", "runs.csv"])
     >>> args.run.__name__, args.data
     ('_run_friction', 'runs.csv')
     """
-    identify = subparsers.add_parser(
+    identify: argparse.ArgumentParser = subparsers.add_parser(
         "identify", help="identify parameters from measured data",
         description="Identify parameters from measured data (CSV formats: "
                     "docs/identification.md).")
@@ -199,23 +206,3 @@ def add_identify_parser(subparsers: Any) -> argparse.ArgumentParser:
     targets.set_defaults(run=_run_targets)
     return identify
 
-
-def main(argv: list[str] | None = None) -> int:
-    """Stand-alone entry point (``python -m hybridlab.identify.cli identify ...``).
-
-    User errors print one line and return 2.
-    """
-    from hybridlab.errors import HybridlabError
-
-    parser = argparse.ArgumentParser(prog="hybridlab")
-    add_identify_parser(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(argv)
-    try:
-        return int(args.run(args))
-    except (HybridlabError, ValueError, TypeError, OSError) as exc:
-        print(f"error: {exc}")
-        return 2
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

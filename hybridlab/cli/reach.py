@@ -1,6 +1,6 @@
-"""The ``reach`` subcommand, ready to be attached to the main command line.
+"""``hybridlab reach``: prove safety specs from an initial set, or find a counterexample.
 
-``add_reach_parser(subparsers)`` adds::
+``add_parser(subparsers)`` adds::
 
     reach MODEL --init NAME=LO:HI ... [--param NAME=LO:HI] [--input NAME=LO:HI]
           --t-end T --safe "SPEC" ... [--avoid NAME=LO:HI[,NAME=LO:HI...]]
@@ -18,18 +18,25 @@ import argparse
 import json
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
-from hybridlab._cliargs import finite_number, require_finite, split_assignment
-from hybridlab._files import replace_text
-from hybridlab.model.loader import load_model
-from hybridlab.reachability.falsify import FalsifyOptions
-from hybridlab.reachability.spec import Avoid
-from hybridlab.reachability.verdict import Verdict, VerdictStatus, check
+from hybridlab.cli._args import (
+    EXIT_INCOMPLETE,
+    EXIT_OK,
+    finite_number,
+    require_finite,
+    split_assignment,
+)
+from hybridlab.reachability.options import FalsifyOptions
 
-__all__ = ["add_reach_parser", "parse_ranges", "EXIT_CODES"]
+if TYPE_CHECKING:
+    from hybridlab.reachability.spec import Avoid
+    from hybridlab.reachability.verdict import Verdict
 
-#: Exit code of each verdict.
-EXIT_CODES = {VerdictStatus.SAFE: 0, VerdictStatus.UNSAFE: 1, VerdictStatus.UNKNOWN: 3}
+__all__ = ["add_parser", "parse_ranges", "EXIT_CODES"]
+
+#: Exit code of each verdict, by name; UNSAFE (a counterexample) fails like a failed test.
+EXIT_CODES = {"SAFE": EXIT_OK, "UNSAFE": 1, "UNKNOWN": EXIT_INCOMPLETE}
 
 
 def parse_ranges(items: Sequence[str] | None, option: str,
@@ -66,6 +73,8 @@ def parse_ranges(items: Sequence[str] | None, option: str,
 
 
 def _avoid(items: Sequence[str] | None) -> list[Avoid]:
+    from hybridlab.reachability.spec import Avoid
+
     regions = []
     for item in items or ():
         parts = parse_ranges([p for p in item.split(",") if p.strip()], "--avoid",
@@ -92,6 +101,10 @@ def _print(verdict: Verdict) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from hybridlab._files import replace_text
+    from hybridlab.model.loader import load_model
+    from hybridlab.reachability.verdict import check
+
     require_finite(args.t_end, "--t-end")
     if not args.safe and not args.avoid:
         raise ValueError("give at least one --safe SPEC or --avoid REGION")
@@ -119,7 +132,7 @@ def _run(args: argparse.Namespace) -> int:
     if out is not None:
         replace_text(out, json.dumps(verdict.as_dict(), indent=1) + "\n")
         print(f"wrote {args.out}")
-    return EXIT_CODES[verdict.status]
+    return EXIT_CODES[verdict.status.name]
 
 
 def _non_negative(text: str) -> int:
@@ -150,11 +163,12 @@ def _positive(text: str) -> int:
     return value
 
 
-def add_reach_parser(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
-    """Add the ``reach`` subcommand to ``sub``; returns its parser."""
-    p = sub.add_parser("reach", help="check safety specs from an initial set: SAFE (proved), "
-                                     "UNSAFE (counterexample) or UNKNOWN",
-                       description="Exit codes: 0 SAFE, 1 UNSAFE, 3 UNKNOWN, 2 user error.")
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    """Add ``reach`` to the subparsers ``sub`` of the main command line; its parser."""
+    p: argparse.ArgumentParser = sub.add_parser(
+        "reach", help="check safety specs from an initial set: SAFE (proved), "
+                      "UNSAFE (counterexample) or UNKNOWN",
+        description="Exit codes: 0 SAFE, 1 UNSAFE, 3 UNKNOWN, 2 user error.")
     p.add_argument("model")
     p.add_argument("--init", action="append", metavar="NAME=LO:HI",
                    help="initial interval (or NAME=VALUE, a point) of a state; repeatable")

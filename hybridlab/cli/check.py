@@ -1,0 +1,69 @@
+"""``hybridlab check MODEL``: validate a model file and summarise it."""
+
+from __future__ import annotations
+
+import argparse
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from hybridlab.model.schema import Model
+
+from hybridlab.cli._args import EXIT_OK
+
+__all__ = ["add_parser", "summary"]
+
+
+def summary(model: Model) -> str:
+    """The summary ``check`` prints: states, parameters, modes, transitions, scenarios.
+
+    Examples
+    --------
+    >>> from hybridlab import load_model
+    >>> print(summary(load_model("models/bouncing_ball.toml")).splitlines()[0])
+    model 'bouncing_ball': OK
+    """
+    from hybridlab._text import printable
+    from hybridlab.symbolic.compile import compile_model
+
+    compiled = compile_model(model)
+    lines = [f"model {model.name!r}: OK"]
+    if model.description:
+        lines.append(f"  {' '.join(model.description.split())}")
+    lines.append(f"  states ({len(model.states)}): {', '.join(model.states)}")
+    lines.append(f"  parameters ({len(model.parameters)}): {', '.join(model.parameters) or '-'}")
+    lines.append(f"  modes ({len(model.modes)}), initial {model.initial.mode!r}:")
+    for name, mode in compiled.modes.items():
+        extra = ""
+        if mode.switches:
+            extra = "; discontinuities: " + ", ".join(s.text for s in mode.switches)
+        lines.append(f"    {printable(name)}: {len(mode.outgoing)} outgoing, "
+                     f"{len(mode.invariant_texts)} invariant(s){extra}")
+    lines.append(f"  transitions ({len(model.transitions)}):")
+    for tr in model.transitions:
+        when = " and ".join(tr.guard) or "-"
+        if tr.schedule:
+            when += f" every {tr.schedule.period}"
+        prio = "" if tr.priority is None else f" priority {tr.priority}"
+        source = tr.source if isinstance(tr.source, str) else ", ".join(tr.source)
+        lines.append(f"    {printable(tr.name)}: {printable(source)} -> {printable(tr.target)} "
+                     f"when {when}{prio}")
+    if model.scenarios:
+        lines.append("  scenarios: " + ", ".join(f"{printable(k)} (t_end {v.t_end:g})"
+                                                for k, v in model.scenarios.items()))
+    return "\n".join(lines)
+
+
+def _run(args: argparse.Namespace) -> int:
+    from hybridlab.model.loader import load_model
+
+    print(summary(load_model(args.model)))
+    return EXIT_OK
+
+
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    """Add ``check`` to the subparsers ``sub`` of the main command line; its parser."""
+    p: argparse.ArgumentParser = sub.add_parser("check",
+                                                help="validate a model file and summarise it")
+    p.add_argument("model")
+    p.set_defaults(run=_run)
+    return p

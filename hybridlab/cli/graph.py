@@ -1,0 +1,49 @@
+"""``hybridlab graph MODEL``: the mode graph in Graphviz DOT, or its check (exit 4 on findings)."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from hybridlab.cli._args import EXIT_FINDINGS, EXIT_OK, UsageError
+
+__all__ = ["add_parser"]
+
+
+def _run(args: argparse.Namespace) -> int:
+    from hybridlab._files import replace_text
+    from hybridlab.graph import check_mode_graph, to_dot
+    from hybridlab.model.loader import load_model
+
+    if args.max_cycle_length < 1:
+        raise UsageError(f"--max-cycle-length must be at least 1 (got {args.max_cycle_length})")
+    model = load_model(args.model)
+    if args.check:
+        report = check_mode_graph(model, scenarios=args.scenario,
+                                  max_cycle_length=args.max_cycle_length)
+        print(report)
+        return EXIT_OK if report.ok else EXIT_FINDINGS
+    text = to_dot(model)
+    if args.out:
+        replace_text(args.out, text)
+        print(f"wrote {args.out}")
+    else:
+        print(text, end="")
+    return EXIT_OK
+
+
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    """Add ``graph`` to the subparsers ``sub`` of the main command line; its parser."""
+    p: argparse.ArgumentParser = sub.add_parser(
+        "graph", help="print the mode graph in Graphviz DOT, or check it")
+    p.add_argument("model")
+    p.add_argument("--out", help="write the DOT text to this file")
+    p.add_argument("--check", action="store_true",
+                   help="report dead modes, guards that never hold, zero-dwell cycles; "
+                        "exit 4 on a warning or an error")
+    p.add_argument("--scenario", action="append", metavar="NAME",
+                   help="with --check: check only this scenario's parameters (repeatable)")
+    p.add_argument("--max-cycle-length", type=int, default=8, dest="max_cycle_length",
+                   help="with --check: longest cycle examined (default 8)")
+    p.set_defaults(run=_run)
+    return p

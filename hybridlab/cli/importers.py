@@ -1,0 +1,50 @@
+"""``hybridlab import``: convert a model from another format to TOML.
+
+``add_parser(subparsers)`` adds::
+
+    import spaceex MODEL.xml [--cfg FILE.cfg] [--system ID] [-o model.toml]
+
+It prints the imported model as TOML (headed by comments giving the initial set, the
+forbidden set and the horizon from the ``.cfg``) or writes it to ``-o``. User errors
+are raised as hybridlab errors (``ValueError``) for the caller to print in one line.
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from hybridlab.cli._args import EXIT_OK
+
+__all__ = ["add_parser"]
+
+
+def _run_spaceex(args: argparse.Namespace) -> int:
+    from hybridlab._files import replace_text
+    from hybridlab.io import load_spaceex, problem_header
+    from hybridlab.model.loader import dumps_model
+
+    problem = load_spaceex(args.model, args.cfg, system=args.system)
+    text = problem_header(problem) + "\n" + dumps_model(problem.model)
+    if args.out:
+        replace_text(args.out, text)
+        print(f"wrote {args.out}")
+    else:
+        print(text, end="")
+    return EXIT_OK
+
+
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    """Add ``import spaceex`` to the subparsers ``sub`` of the main command line; its parser."""
+    imp: argparse.ArgumentParser = sub.add_parser(
+        "import", help="convert a model from another format to TOML")
+    formats = imp.add_subparsers(dest="format", required=True,
+                                 parser_class=type(imp))
+    sx = formats.add_parser("spaceex", help="a SpaceEx XML model (and its .cfg)")
+    sx.add_argument("model", help="the SpaceEx model file (.xml)")
+    sx.add_argument("--cfg", help="the SpaceEx configuration file (.cfg)")
+    sx.add_argument("--system", help="the component to import (default: the .cfg's "
+                                     "'system', else the component nobody binds)")
+    sx.add_argument("-o", "--out", help="write the TOML model to this file")
+    sx.set_defaults(run=_run_spaceex)
+    return imp

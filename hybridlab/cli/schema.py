@@ -1,0 +1,32 @@
+"""``hybridlab schema``: the JSON schema of model files."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+from hybridlab.cli._args import EXIT_OK
+
+__all__ = ["add_parser"]
+
+
+def _run(args: argparse.Namespace) -> int:
+    from hybridlab._files import replace_text
+    from hybridlab.model.loader import model_json_schema
+
+    text = json.dumps(model_json_schema(), indent=2) + "\n"
+    if args.out:
+        replace_text(args.out, text)
+    else:
+        print(text, end="")
+    return EXIT_OK
+
+
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    """Add ``schema`` to the subparsers ``sub`` of the main command line; its parser."""
+    p: argparse.ArgumentParser = sub.add_parser("schema",
+                                                help="print the JSON schema of model files")
+    p.add_argument("--out")
+    p.set_defaults(run=_run)
+    return p

@@ -1,0 +1,90 @@
+"""``hybridlab simulate MODEL``: one run, its status, events and final state (exit 3 if early)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from hybridlab.cli._args import (
+    EXIT_INCOMPLETE,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    UsageError,
+    assignments,
+    require_finite,
+)
+from hybridlab.simulation.options import METHODS
+
+__all__ = ["add_parser"]
+
+
+def _run(args: argparse.Namespace) -> int:
+    from hybridlab._text import printable
+    from hybridlab.model.loader import load_model
+    from hybridlab.simulation.api import simulate
+    from hybridlab.simulation.result import Status
+
+    # check every argument before the (possibly long) simulation runs
+    for option in ("t_end", "rtol", "atol", "max_step", "time_limit"):
+        require_finite(getattr(args, option), "--" + option.replace("_", "-"), error=UsageError)
+    params = assignments(args.set, "--set")
+    initial = assignments(args.init, "--init")
+    out = Path(args.out) if args.out else None
+    if out is not None and out.suffix.lower() not in (".json", ".csv", ".npz"):
+        raise UsageError(f"--out must end in .json, .csv or .npz (got {args.out!r})")
+    model = load_model(args.model)
+    kwargs = {}
+    if args.zeno:
+        kwargs["zeno"] = args.zeno
+    if args.backend:
+        kwargs["backend"] = args.backend
+    for option in ("max_steps", "time_limit"):
+        if getattr(args, option) is not None:
+            kwargs[option] = getattr(args, option)
+    result = simulate(
+        model, args.t_end, scenario=args.scenario, params=params, initial=initial,
+        mode=args.mode, rtol=args.rtol, atol=args.atol, method=args.method,
+        max_step=args.max_step, **kwargs,
+    )
+    if out is not None:
+        result.save(out)
+    jumps = len(result.jumps)
+    print(f"status: {result.status.name}: {printable(result.message)}")
+    print(f"events: {len(result.events)} ({jumps} jumps)")
+    final = result.final
+    state = ", ".join(f"{k}={v:.10g}" for k, v in final.state.items())
+    print(f"final: t={final.t:.10g} j={final.j} mode={printable(final.mode)} {state}")
+    if result.zeno_time is not None:
+        print(f"zeno_time: {result.zeno_time:.12g}")
+    if args.out:
+        print(f"wrote {args.out}")
+    if result.status is Status.INTERRUPTED:
+        return EXIT_INTERRUPTED
+    return EXIT_OK if result.status.ok else EXIT_INCOMPLETE
+
+
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    """Add ``simulate`` to the subparsers ``sub`` of the main command line; its parser."""
+    p: argparse.ArgumentParser = sub.add_parser("simulate", help="simulate a model")
+    p.add_argument("model")
+    p.add_argument("--scenario")
+    p.add_argument("--t-end", type=float, dest="t_end")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="parameter override")
+    p.add_argument("--init", action="append", metavar="NAME=VALUE",
+                   help="initial state override")
+    p.add_argument("--mode", help="initial mode")
+    p.add_argument("--rtol", type=float)
+    p.add_argument("--atol", type=float)
+    p.add_argument("--method", choices=METHODS)
+    p.add_argument("--max-step", type=float, dest="max_step")
+    p.add_argument("--zeno", choices=("stop", "error"))
+    p.add_argument("--max-steps", type=int, dest="max_steps",
+                   help="integrator steps before stopping with STEP_LIMIT (default 10000000)")
+    p.add_argument("--time-limit", type=float, dest="time_limit", metavar="SECONDS",
+                   help="wall-clock seconds before stopping with TIME_LIMIT")
+    p.add_argument("--backend", choices=("auto", "compiled", "reference"),
+                   help="simulation backend (default: compiled when numba is installed)")
+    p.add_argument("--out", help="write the result (.json, .csv or .npz)")
+    p.set_defaults(run=_run)
+    return p
