@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import ast
 import importlib
+import importlib.util
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -61,6 +62,7 @@ def lazy_exports(package: str, init_file: str) -> tuple[Callable[[str], Any],
         The package's ``__name__``.
     init_file : str
         Its ``__file__``; the ``if TYPE_CHECKING:`` imports in it are the exports.
+        Submodules load on first access too (``hybridlab.model.loads_model``).
 
     Returns
     -------
@@ -75,15 +77,19 @@ def lazy_exports(package: str, init_file: str) -> tuple[Callable[[str], Any],
     'COMPLETED'
     >>> "simulate" in dir(hybridlab)
     True
+    >>> hybridlab.model.loads_model is hybridlab.loads_model
+    True
     """
     origins = type_checking_imports(Path(init_file).read_text(encoding="utf-8"))
 
     def __getattr__(name: str) -> Any:
-        try:
+        if name in origins:
             module, attribute = origins[name]
-        except KeyError:
-            raise AttributeError(f"module {package!r} has no attribute {name!r}") from None
-        value = getattr(importlib.import_module(module), attribute)
+            value = getattr(importlib.import_module(module), attribute)
+        elif importlib.util.find_spec(f"{package}.{name}") is not None:
+            value = importlib.import_module(f"{package}.{name}")  # a subpackage or module
+        else:
+            raise AttributeError(f"module {package!r} has no attribute {name!r}")
         setattr(sys.modules[package], name, value)
         return value
 

@@ -33,6 +33,14 @@ def test_an_unknown_name_is_an_attribute_error() -> None:
         hybridlab.simulatee  # noqa: B018
 
 
+def test_submodules_load_on_first_access() -> None:
+    out = subprocess.run([sys.executable, "-c", "import hybridlab\n"
+                          "print(hybridlab.model.loads_model is hybridlab.loads_model, "
+                          "hybridlab.reachability.sets.Zonotope is hybridlab.Zonotope)"],
+                         capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["True", "True"]
+
+
 def _modules_loaded_by(code: str) -> set[str]:
     out = subprocess.run([sys.executable, "-c", code + "\nimport sys\nprint(*sys.modules)"],
                          capture_output=True, text=True, check=True)
