@@ -291,6 +291,34 @@ def test_safe_with_a_proven_margin_on_a_closed_form():
     assert verdict.as_dict()["verdict"] == "SAFE"
 
 
+def test_a_quick_proof_needs_no_simulation():
+    verdict = check_safety(hybridlab.loads_model(DECAY), initial={"x": (1.0, 2.0)}, t_end=1.0,
+                           safe=["x >= 0.3", "x <= 2.05"])
+    assert verdict.status is VerdictStatus.SAFE, verdict.reason
+    assert verdict.falsification is None and "falsification" not in verdict.as_dict()
+    # an unproved spec: the quick attempt stops at its first unproved set, the flowpipes are
+    # computed again at the default step after the falsification
+    unproved = check_safety(hybridlab.loads_model(DECAY), initial={"x": (1.0, 2.0)},
+                            t_end=1.0, safe=[f"x >= {math.exp(-1.0) - 1e-9!r}"], step=0.1,
+                            falsify_options=FalsifyOptions(samples=2, local_evals=0))
+    assert unproved.status is VerdictStatus.UNKNOWN and unproved.reach.complete
+    assert unproved.falsification.runs == 1 + 2 + 2
+
+
+def test_reach_stops_at_the_first_set_that_does_not_prove_a_spec():
+    decay = hybridlab.compile_model(hybridlab.loads_model(DECAY))
+    specs = as_specs(["x >= 0.5"], decay)  # x = x0 exp(-t) falls below 0.5 at t = ln 2
+    result = hybridlab.reach(decay, initial={"x": (1.0, 2.0)}, t_end=1.0, step=0.01,
+                             stop_unproved=specs)
+    assert not result.complete
+    assert result.incomplete_reasons[0].startswith(
+        "stopped at the first set that does not prove spec 'x >= 0.5' (t in [0.68")
+    # the flowpipe's bound crosses 0.5 a step before t = ln 2, and the analysis ends there
+    assert len(result.sets) == 69 and result.sets[-1].t[1] < math.log(2.0)
+    full = hybridlab.reach(decay, initial={"x": (1.0, 2.0)}, t_end=1.0, step=0.01)
+    assert full.complete and len(full.sets) == 100
+
+
 def test_unknown_when_the_reach_is_cut_by_max_jumps(ball):
     verdict = check_safety(ball, initial={"h": (5.0, 6.0)}, t_end=3.0, safe=["h >= -1"],
                            max_jumps=0, falsify_options=FalsifyOptions(samples=2, local_evals=0))

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time as _time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +16,7 @@ from hybridlab.reachability.hybrid import run_analysis
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.result import ReachResult, merge_results
 from hybridlab.reachability.sets import Box, Polytope, Zonotope, as_zonotope
+from hybridlab.reachability.spec import Spec
 from hybridlab.reachability.system import System, build_system
 from hybridlab.reachability.worker import Piece, run_piece
 from hybridlab.simulation.executors import (
@@ -70,6 +71,7 @@ def reach(
     inputs: Mapping[str, tuple[float, float]] | None = None,
     options: ReachOptions | None = None,
     executor: Any = None,
+    stop_unproved: Sequence[Spec] = (),
     **option_overrides: Any,
 ) -> ReachResult:
     """Sets of states reachable from a set of initial states, sound in dense time.
@@ -105,6 +107,11 @@ def reach(
         workers), any :class:`concurrent.futures.Executor` or a
         ``distributed.Client``, as for :func:`hybridlab.sweep`. The result is
         the same whatever runs it (sets merged in piece order).
+    stop_unproved : sequence of Spec, optional
+        Specs (:func:`~hybridlab.reachability.spec.as_specs`) whose first
+        flowpipe set that does not prove them ends the analysis, incomplete,
+        with the reason: a proof attempt that gives up as soon as it cannot
+        succeed.
 
     Returns
     -------
@@ -225,23 +232,25 @@ def reach(
         opts = opts.updated(step=default_step(system, t_end - t0, opts.dwell))
     if opts.time_budget is not None and opts.deadline is None:
         opts = opts.updated(deadline=_time.time() + float(opts.time_budget))
+    stop = tuple(stop_unproved)
     if opts.split == 1:
-        return run_analysis(system, opts, mode, P0, t0, t_end, p)
+        return run_analysis(system, opts, mode, P0, t0, t_end, p, stop)
     pieces = _split(P0, opts.split)
     if len(pieces) == 1:
-        return run_analysis(system, opts, mode, pieces[0], t0, t_end, p)
+        return run_analysis(system, opts, mode, pieces[0], t0, t_end, p, stop)
     placement = place("serial" if executor is None else executor, len(pieces), ReachError)
     try:
         if placement.executor is None:
-            results = [run_analysis(system, opts, mode, piece, t0, t_end, p) for piece in pieces]
+            results = [run_analysis(system, opts, mode, piece, t0, t_end, p, stop)
+                       for piece in pieces]
         elif placement.in_process:  # threads share the system: nothing is pickled
             results = _gather([placement.executor.submit(run_analysis, system, opts, mode,
-                                                         piece, t0, t_end, p)
+                                                         piece, t0, t_end, p, stop)
                                for piece in pieces])
         else:
             results = _gather([placement.executor.submit(run_piece, task) for task in
                                _tasks(compiled, p, uncertain, bounded, opts, mode,
-                                      pieces, t0, t_end)])
+                                      pieces, t0, t_end, stop)])
     finally:
         placement.shutdown()
     return merge_results(results)
@@ -308,13 +317,14 @@ def _gather(futures: list[Any]) -> list[ReachResult]:
 def _tasks(compiled: CompiledModel, p: np.ndarray,
            uncertain: Mapping[str, tuple[float, float]],
            bounded: Mapping[str, tuple[float, float]], opts: ReachOptions, mode: str,
-           pieces: list[Zonotope], t0: float, t_end: float) -> list[Piece]:
+           pieces: list[Zonotope], t0: float, t_end: float,
+           stop: tuple[Spec, ...]) -> list[Piece]:
     """The pieces as picklable tasks for worker processes (the model as JSON text)."""
     text = model_text(compiled.model)
     key = model_key(text)
     compiled_for(text, key, compiled)  # forked workers inherit this process's compiled model
-    return [Piece(text, key, p, dict(uncertain), dict(bounded), opts, mode, piece, t0, t_end)
-            for piece in pieces]
+    return [Piece(text, key, p, dict(uncertain), dict(bounded), opts, mode, piece, t0, t_end,
+                  stop) for piece in pieces]
 
 
 _MAX_PIECES = 4096

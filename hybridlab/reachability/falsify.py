@@ -30,12 +30,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy import optimize
 
 from hybridlab.model.schema import Model
 from hybridlab.reachability.options import FalsifyOptions
 from hybridlab.reachability.spec import Spec
-from hybridlab.simulation.api import simulate
 from hybridlab.simulation.options import SimulationOptions
 from hybridlab.simulation.resolve import as_compiled, scenario_of
 from hybridlab.simulation.result import SimulationResult
@@ -157,6 +155,8 @@ class Problem:
 def _simulate(compiled: CompiledModel, mode: str, t_start: float, t_end: float,
               options: SimulationOptions, initial: Mapping[str, float],
               params: Mapping[str, float]) -> SimulationResult:
+    from hybridlab.simulation.api import simulate  # the engines load with the first run
+
     # every setting explicit, so a scenario of the model cannot change the run on replay
     return simulate(compiled, t_end, params=params, initial=initial, mode=mode, t_start=t_start,
                     method=options.method, rtol=options.rtol, atol=options.atol,
@@ -433,6 +433,8 @@ def _refine_minima(ts: np.ndarray, values: np.ndarray, margin_at, count: int = 3
         lo, hi = float(ts[i - 1]), float(ts[i + 1])
         if not hi > lo:
             continue
+        from scipy import optimize
+
         res = optimize.minimize_scalar(margin_at, bounds=(lo, hi), method="bounded",
                                        options={"xatol": 1e-12 * max(1.0, abs(lo))})
         if np.isfinite(res.fun):
@@ -453,6 +455,8 @@ def _first_violation(spec: Spec, ts: np.ndarray, values: np.ndarray, t_bad: floa
     if margin_at(lo) == 0.0:
         return lo
     try:
+        from scipy import optimize
+
         return float(optimize.brentq(margin_at, lo, hi, xtol=1e-14, rtol=4 * np.finfo(float).eps,
                                      maxiter=200))
     except ValueError:  # no sign change (a touch at zero for a strict spec)
@@ -658,6 +662,8 @@ def _local_search(i: int, u0: np.ndarray, d: int, budget: int, evaluate) -> tupl
         return m.margin if np.isfinite(m.margin) else math.inf
 
     try:
+        from scipy import optimize
+
         optimize.minimize(objective, u0, method="Powell", bounds=[(0.0, 1.0)] * d,
                           options={"maxfev": budget, "xtol": 1e-6, "ftol": 1e-9})
     except _Found as found:

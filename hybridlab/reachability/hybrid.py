@@ -45,7 +45,9 @@ import heapq
 import math
 import sys
 import time as _time
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -57,6 +59,9 @@ from hybridlab.reachability.result import ReachResult, ReachSet, _Context
 from hybridlab.reachability.sets import Box, SetError, Zonotope
 from hybridlab.reachability.system import Rows, System
 from hybridlab.symbolic.intervals import IntervalFunction
+
+if TYPE_CHECKING:
+    from hybridlab.reachability.spec import Spec
 
 __all__ = ["Item", "run_analysis"]
 
@@ -140,9 +145,10 @@ def _clip_axis(box: np.ndarray, rows: Rows) -> np.ndarray | None:
 
 class _Analysis:
     def __init__(self, system: System, options: ReachOptions, t_start: float, t_end: float,
-                 p: np.ndarray) -> None:
+                 p: np.ndarray, stop_unproved: Sequence[Spec] = ()) -> None:
         self.system = system
         self.options = options
+        self.stop_unproved = tuple(stop_unproved)
         self.t_start = t_start
         self.t_end = t_end
         self.step = float(options.step)
@@ -220,6 +226,12 @@ class _Analysis:
                       jumps=item.jumps, set=full.project(range(self.n)), _full=full,
                       _context=self.context, _box=box[:self.n])
         self.records.append((item.id, rs))
+        for spec in self.stop_unproved:
+            lower = spec.lower_on(rs)
+            if lower is not None and not spec.holds(lower):
+                raise _Budget(f"stopped at the first set that does not prove spec "
+                              f"{spec.text!r} (t in [{rs.t[0]:.6g}, {rs.t[1]:.6g}] in mode "
+                              f"{rs.mode!r}, bound {lower:.6g})")
         if len(self.records) > self.options.max_sets:
             raise _Budget(f"max_sets={self.options.max_sets} flowpipe sets computed; the "
                           f"analysis stopped early (raise max_sets or the step)")
@@ -231,8 +243,10 @@ class _Analysis:
         now = _time.time()
         deadline = self.options.deadline
         if deadline is not None and now > deadline:
-            raise _Budget(f"the time budget of {self.options.time_budget:g} s ran out at "
-                          f"t = {t:.6g} in mode {mode!r}; the sets so far are kept")
+            budget = self.options.time_budget
+            what = "the time budget" if budget is None else f"the time budget of {budget:g} s"
+            raise _Budget(f"{what} ran out at t = {t:.6g} in mode {mode!r}; the sets so far "
+                          "are kept")
         show = self.options.progress
         if show is None:
             show = self.progress_tty
@@ -535,10 +549,12 @@ class _Budget(Exception):  # noqa: N818 - a signal, not an error
 
 
 def run_analysis(system: System, options: ReachOptions, mode: str, P0: Zonotope,
-                 t_start: float, t_end: float, p: np.ndarray) -> ReachResult:
-    """Run the analysis from one initial item (used by :func:`hybridlab.reach`)."""
+                 t_start: float, t_end: float, p: np.ndarray,
+                 stop_unproved: Sequence[Spec] = ()) -> ReachResult:
+    """Run the analysis from one initial item (used by :func:`hybridlab.reach`); it ends,
+    incomplete, at the first set that does not prove one of ``stop_unproved``."""
     started = _time.perf_counter()
-    analysis = _Analysis(system, options, t_start, t_end, p)
+    analysis = _Analysis(system, options, t_start, t_end, p, stop_unproved)
     analysis.push(None, mode, P0, t_start, t_start, 0)
     try:
         analysis.run()

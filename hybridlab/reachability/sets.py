@@ -19,7 +19,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.optimize import linprog
 
 from hybridlab.errors import HybridlabError
 from hybridlab.reachability.rounding import U, product_error, up
@@ -386,6 +385,8 @@ class Zonotope:
         Gs, ds = G * w[:, None], (p - self.center) * w
         A = np.vstack([Gs, -Gs])
         rhs = np.concatenate([ds + w * tol, w * tol - ds])
+        from scipy.optimize import linprog
+
         res = linprog(np.zeros(m), A_ub=A, b_ub=rhs, bounds=[(-1, 1)] * m, method="highs")
         return bool(res.status == 0)
 
@@ -528,6 +529,8 @@ class Zonotope:
         slab = _as_slab(A, b)
         if slab is not None:
             return self.bounds_in_slab(*slab)
+        from scipy.optimize import linprog
+
         A_ub, b_ub = A @ G, b - A @ c
         for i in range(self.dim) if dims is None else dims:
             if not np.any(G[i]):
@@ -604,6 +607,8 @@ class Polytope:
     def support(self, direction: Sequence[float]) -> float:
         """``max d . x`` by an LP; ``inf`` if unbounded in that direction."""
         d = _vector(direction, "direction")
+        from scipy.optimize import linprog
+
         res = linprog(-d, A_ub=self.A, b_ub=self.b, bounds=[(None, None)] * self.dim,
                       method="highs")
         if res.status == 3:

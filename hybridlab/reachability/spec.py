@@ -109,6 +109,17 @@ class Spec:
         """``margin < 0`` (``<= 0`` for a region to avoid)."""
         return margin <= 0 if self.strict else margin < 0
 
+    def holds(self, lower: float) -> bool:
+        """Whether a lower bound of the margin proves the spec (``> 0`` for a region)."""
+        return lower > 0 if self.strict else lower >= 0
+
+    def lower_on(self, reach_set: Any) -> float | None:
+        """A lower bound of the margin over one ``ReachSet`` (``None``: not in a covered mode)."""
+        rows = self.rows.get(reach_set.mode)
+        if rows is None:
+            return None
+        return self.combine_lower(reach_set.bound_all(rows)[:, 0].tolist())
+
     def combine_lower(self, row_lower: Sequence[float]) -> float:
         """A lower bound of the margin from lower bounds of its rows.
 

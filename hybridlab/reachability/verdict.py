@@ -173,19 +173,15 @@ def bound_specs(specs: Iterable[Spec], reach_result: Any) -> tuple[SpecBound, ..
         best = SpecBound(spec.text, math.inf)
         count = 0
         for rs in reach_result.sets:
-            if not spec.covers(rs.mode):
+            lower = spec.lower_on(rs)
+            if lower is None:
                 continue
             count += 1
-            lower = spec.combine_lower(rs.bound_all(spec.rows[rs.mode])[:, 0].tolist())
             if lower < best.lower or best.mode is None and lower == best.lower:
                 best = SpecBound(spec.text, lower, rs.mode,
                                  (float(rs.t[0]), float(rs.t[1])), int(rs.jumps))
         out.append(SpecBound(best.spec, best.lower, best.mode, best.t, best.jumps, count))
     return tuple(out)
-
-
-def _proved(spec: Spec, lower: float) -> bool:
-    return lower > 0 if spec.strict else lower >= 0
 
 
 def check(
@@ -253,11 +249,11 @@ def check(
     texts = tuple(s.text for s in specs)
 
     search = FalsificationSearch(problem, specs, falsify_options)
-    found = search.sample()
-    unsafe = _unsafe(found, texts, started)
-    if unsafe is not None:
-        return unsafe
     if not prove:
+        found = search.sample()
+        unsafe = _unsafe(found, texts, started)
+        if unsafe is not None:
+            return unsafe
         found = search.local()
         unsafe = _unsafe(found, texts, started)
         if unsafe is not None:
@@ -276,27 +272,48 @@ def check(
     step_chosen = "step" in reach_overrides or getattr(options, "step", None) is not None
     overrides = dict(reach_overrides)
     dwell_known = "dwell" in overrides or getattr(options, "dwell", None) is not None
-    if not (step_chosen or dwell_known) and found.most_jumps:
-        # the busiest simulated run's dwell sets the default step (see default_step)
-        overrides["dwell"] = (problem.t_end - problem.t_start) / (found.most_jumps + 1)
     budget = overrides.get("time_budget", getattr(options, "time_budget", None))
-    if budget is not None and overrides.get("deadline",
-                                            getattr(options, "deadline", None)) is None:
-        overrides["deadline"] = time.time() + float(budget)
+    deadline = overrides.get("deadline", getattr(options, "deadline", None))
+    if budget is not None and deadline is None:
+        deadline = overrides["deadline"] = time.time() + float(budget)
 
     tried: list[str] = []  # the refinements run, for the reason
 
-    def attempt(stage: dict[str, Any]) -> _Attempt:
+    def attempt(stage: dict[str, Any], until: float | None = None) -> _Attempt:
         if stage:
             tried.append(_describe(stage))
+        extra = {} if until is None else {"deadline": until}
         result = reach(compiled, initial=initial, t_end=t_end, mode=mode, scenario=scenario,
                        params=params, inputs=inputs, options=options, executor=executor,
-                       **{**overrides, **stage})
+                       stop_unproved=specs if until is not None else (),
+                       **{**overrides, **stage, **extra})
         return _Attempt.of(specs, result, stage)
 
     failures = (HybridlabError, ArithmeticError, NotImplementedError, RuntimeError)
+    # a quick proof first: a small system is often proved before the simulator has loaded,
+    # and a proof needs no simulation; the attempt ends at the first set that does not
+    # prove every spec, or after _QUICK_PROOF_S
+    quick_until = time.time() + _QUICK_PROOF_S
     try:
-        best = attempt({})
+        quick: _Attempt | None = attempt({}, quick_until if deadline is None
+                                         else min(deadline, quick_until))
+    except failures:
+        quick = None
+    if quick is not None and quick.proved and quick.result.complete:
+        return _safe(quick, problem.t_end, texts, started, None)
+
+    found = search.sample()
+    unsafe = _unsafe(found, texts, started)
+    if unsafe is not None:
+        return unsafe
+    if not (step_chosen or dwell_known) and found.most_jumps:
+        # the busiest simulated run's dwell sets the default step (see default_step)
+        overrides["dwell"] = (problem.t_end - problem.t_start) / (found.most_jumps + 1)
+    # the quick attempt stops at its first unproved set, so it stands only where the
+    # caller's whole time budget is spent anyway
+    stands = deadline is not None and time.time() >= deadline
+    try:
+        best = quick if quick is not None and stands else attempt({})
     except failures as exc:
         found = search.local()
         unsafe = _unsafe(found, texts, started)
@@ -309,7 +326,7 @@ def check(
                        falsification=found, time_s=time.perf_counter() - started)
     try:  # a refinement that fails leaves the result before it standing
         if best.open and not step_chosen:
-            step = float(best.result.options.step)
+            step = best.step
             stalled = 0  # halvings in a row that did not tighten the failing bound
             for _ in range(_STEP_HALVINGS):
                 step /= 2
@@ -328,30 +345,23 @@ def check(
                 best = clustered
     except failures as exc:
         tried[-1] += f" (failed: {type(exc).__name__})"
-    result, bounds, tightest, proved = best.result, best.bounds, best.tightest, best.proved
+    if best.proved and best.result.complete:
+        return _safe(best, problem.t_end, texts, started, found)
+    # the local search only pays where the flowpipes proved too little
+    found = search.local()
+    unsafe = _unsafe(found, texts, started)
+    if unsafe is not None:
+        return unsafe
+    result, bounds, tightest = best.result, best.bounds, best.tightest
     margin = None if not math.isfinite(tightest.lower) else tightest.lower
-    if not (proved and result.complete):
-        # the local search only pays where the flowpipes proved too little
-        found = search.local()
-        unsafe = _unsafe(found, texts, started)
-        if unsafe is not None:
-            return unsafe
-    refined = best.refinement()
     elapsed = time.perf_counter() - started
     common = dict(margin=margin, where=tightest if tightest.mode else None, spec_bounds=bounds,
                   reach=result, falsification=found)
-    if proved and result.complete:
-        return Verdict(VerdictStatus.SAFE, texts,
-                       f"every spec holds on all {len(result.sets)} reach sets up to "
-                       f"t_end={problem.t_end:g}; smallest proven margin "
-                       f"{_fmt(tightest.lower)} (spec {tightest.spec!r} {tightest.where()})"
-                       f"{refined}",
-                       time_s=elapsed, **common)
     reasons = []
     if not result.complete:
         why = "; ".join(result.incomplete_reasons) or "not every branch reached t_end"
         reasons.append(f"the reach result is incomplete ({why}): nothing is proved past it")
-    failing = [b for s, b in zip(specs, bounds, strict=True) if not _proved(s, b.lower)]
+    failing = [b for s, b in zip(specs, bounds, strict=True) if not s.holds(b.lower)]
     for b in failing:
         reasons.append(f"the flowpipe bound of spec {b.spec!r} reaches {_fmt(b.lower)} "
                        f"{b.where()} (after {b.jumps} jump(s)) while no simulation violated "
@@ -365,6 +375,11 @@ def check(
 
 _STEP_HALVINGS = 5
 """Halvings of the step at most when a verdict is refined."""
+
+_QUICK_PROOF_S = 1.0
+"""Seconds the proof attempted before any simulation may take: about what loading the
+compiled simulator and a first falsification cost on a small model, so a model proved
+in that time needs no simulation, and one that is not loses at most that."""
 
 _STEP_PATIENCE = 2
 """Halvings in a row that do not tighten the failing bound before the refinement stops
@@ -384,13 +399,17 @@ class _Attempt:
     @staticmethod
     def of(specs: list[Spec], result: Any, stage: dict[str, Any]) -> _Attempt:
         bounds = bound_specs(specs, result)
-        proved = all(_proved(s, b.lower) for s, b in zip(specs, bounds, strict=True))
+        proved = all(s.holds(b.lower) for s, b in zip(specs, bounds, strict=True))
         return _Attempt(result, bounds, min(bounds, key=lambda b: b.lower), proved, stage,
                         any(rs.jumps for rs in result.sets))
 
     @property
     def lower(self) -> float:
         return self.tightest.lower
+
+    @property
+    def step(self) -> float:
+        return float(self.result.options.step)
 
     @property
     def open(self) -> bool:
@@ -409,6 +428,20 @@ def _describe(stage: dict[str, Any]) -> str:
     if "step" in stage:
         parts.append(f"step={stage['step']:.6g}")
     return ", ".join(parts)
+
+
+def _safe(best: _Attempt, t_end: float, texts: tuple[str, ...], started: float,
+          found: Falsification | None) -> Verdict:
+    """The SAFE verdict of a proved, complete attempt."""
+    tightest, result = best.tightest, best.result
+    return Verdict(VerdictStatus.SAFE, texts,
+                   f"every spec holds on all {len(result.sets)} reach sets up to "
+                   f"t_end={t_end:g}; smallest proven margin {_fmt(tightest.lower)} "
+                   f"(spec {tightest.spec!r} {tightest.where()}){best.refinement()}",
+                   margin=tightest.lower if math.isfinite(tightest.lower) else None,
+                   where=tightest if tightest.mode else None,
+                   spec_bounds=best.bounds, reach=result, falsification=found,
+                   time_s=time.perf_counter() - started)
 
 
 def _evidence(found: Falsification) -> str:

@@ -19,6 +19,7 @@ from hybridlab.reachability.hybrid import run_analysis
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.result import ReachResult
 from hybridlab.reachability.sets import Zonotope
+from hybridlab.reachability.spec import Spec
 from hybridlab.reachability.system import build_system
 from hybridlab.simulation.executors import compiled_for
 
@@ -43,6 +44,8 @@ class Piece:
     initial : Zonotope
         This piece of the (extended) initial set.
     t_start, t_end : float
+    stop_unproved : tuple of Spec
+        Specs whose first unproved set ends the analysis (see :func:`hybridlab.reach`).
     """
 
     model: str
@@ -55,6 +58,7 @@ class Piece:
     initial: Zonotope
     t_start: float
     t_end: float
+    stop_unproved: tuple[Spec, ...] = ()
 
 
 def run_piece(piece: Piece) -> ReachResult:
@@ -75,4 +79,4 @@ def run_piece(piece: Piece) -> ReachResult:
     compiled = compiled_for(piece.model, piece.key)
     system = build_system(compiled, piece.p, dict(piece.uncertain), dict(piece.bounded))
     return run_analysis(system, piece.options, piece.mode, piece.initial, piece.t_start,
-                        piece.t_end, piece.p)
+                        piece.t_end, piece.p, piece.stop_unproved)
