@@ -33,7 +33,7 @@ if TYPE_CHECKING:
     from hybridlab.reachability.spec import Avoid
     from hybridlab.reachability.verdict import Verdict
 
-__all__ = ["add_parser", "parse_ranges", "EXIT_CODES"]
+__all__ = ["add_parser", "parse_ranges", "parse_intervals", "EXIT_CODES"]
 
 #: Exit code of each verdict, by name; UNSAFE (a counterexample) fails like a failed test.
 EXIT_CODES = {"SAFE": EXIT_OK, "UNSAFE": 1, "UNKNOWN": EXIT_INCOMPLETE}
@@ -58,13 +58,9 @@ def parse_ranges(items: Sequence[str] | None, option: str,
         name, value = split_assignment(item, option, form=form, require_value=True)
         if name in out:
             raise ValueError(f"{option} {name}: given twice")
-        lo_text, colon, hi_text = value.partition(":")
-        if colon:
-            where = f"{option} {name}"
-            lo, hi = finite_number(lo_text, where), finite_number(hi_text, where)
-            if lo > hi:
-                raise ValueError(f"{option} {name}: the interval {value.strip()} needs LO <= HI")
-            out[name] = (lo, hi)
+        interval = _interval(name, value, option)
+        if interval is not None:
+            out[name] = interval
         elif allow_point:
             out[name] = finite_number(value, f"{option} {name}")
         else:
@@ -72,13 +68,48 @@ def parse_ranges(items: Sequence[str] | None, option: str,
     return out
 
 
+def parse_intervals(items: Sequence[str] | None, option: str) -> dict[str, tuple[float, float]]:
+    """Parse ``NAME=LO:HI`` items: :func:`parse_ranges` without points.
+
+    Examples
+    --------
+    >>> parse_intervals(["u=-1:1"], "--input")
+    {'u': (-1.0, 1.0)}
+    >>> parse_intervals(["u=1"], "--input")
+    Traceback (most recent call last):
+    ...
+    ValueError: --input u: expects an interval LO:HI (got '1')
+    """
+    out: dict[str, tuple[float, float]] = {}
+    for item in items or ():
+        name, value = split_assignment(item, option, form="NAME=LO:HI", require_value=True)
+        if name in out:
+            raise ValueError(f"{option} {name}: given twice")
+        interval = _interval(name, value, option)
+        if interval is None:
+            raise ValueError(f"{option} {name}: expects an interval LO:HI (got {value!r})")
+        out[name] = interval
+    return out
+
+
+def _interval(name: str, value: str, option: str) -> tuple[float, float] | None:
+    """``value`` as an interval ``LO:HI``, or ``None`` when it has no colon."""
+    lo_text, colon, hi_text = value.partition(":")
+    if not colon:
+        return None
+    where = f"{option} {name}"
+    lo, hi = finite_number(lo_text, where), finite_number(hi_text, where)
+    if lo > hi:
+        raise ValueError(f"{option} {name}: the interval {value.strip()} needs LO <= HI")
+    return lo, hi
+
+
 def _avoid(items: Sequence[str] | None) -> list[Avoid]:
     from hybridlab.reachability.spec import Avoid
 
     regions = []
     for item in items or ():
-        parts = parse_ranges([p for p in item.split(",") if p.strip()], "--avoid",
-                             allow_point=False)
+        parts = parse_intervals([p for p in item.split(",") if p.strip()], "--avoid")
         if not parts:
             raise ValueError(f"--avoid expects NAME=LO:HI[,NAME=LO:HI...] (got {item!r})")
         regions.append(Avoid(box=parts, name=f"avoid {item.strip()}"))
@@ -110,7 +141,7 @@ def _run(args: argparse.Namespace) -> int:
         raise ValueError("give at least one --safe SPEC or --avoid REGION")
     initial = parse_ranges(args.init, "--init")
     params = parse_ranges(args.param, "--param")
-    inputs = parse_ranges(args.input, "--input", allow_point=False)
+    inputs = parse_intervals(args.input, "--input")
     out = Path(args.out) if args.out else None
     if out is not None and out.suffix.lower() != ".json":
         raise ValueError(f"--out must end in .json (got {args.out!r})")

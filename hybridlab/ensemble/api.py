@@ -102,7 +102,8 @@ def _execute(model_arg: Model | CompiledModel | str | Path, runs: list[dict[str,
     compiled = compiled_for(text, key, compiled, model)
     observables = parse_observables(observe)
     counts = parse_counts(events, [t.name for t in model.transitions])
-    texts = [o.expression for o in observables if o.function is None]
+    # (an Observable has exactly one of expression and function)
+    texts = [o.expression for o in observables if o.expression is not None]
     if texts:
         Observer(compiled, texts)  # a bad expression fails here, once, naming its token
     columns = ("run", *inputs, "status", "t_final", "jumps", *(c.column for c in counts),
@@ -156,10 +157,10 @@ def _execute(model_arg: Model | CompiledModel | str | Path, runs: list[dict[str,
         bar.close()
         _shutdown(placement)
     blank = (None,) * (len(counts) + len(observables))
-    worker_rows = [row if row is not None else (INTERRUPTED, math.nan, None, *blank,
-                                                "interrupted (Ctrl-C) before this run finished")
-                   for row in worker_rows]
-    rows = tuple((i, *input_rows[i], *row) for i, row in enumerate(worker_rows))
+    finished = [row if row is not None else (INTERRUPTED, math.nan, None, *blank,
+                                             "interrupted (Ctrl-C) before this run finished")
+                for row in worker_rows]
+    rows = tuple((i, *input_rows[i], *row) for i, row in enumerate(finished))
     return SweepResult(columns=columns, rows=rows, inputs=tuple(inputs),
                        results=tuple(results) if keep == "results" else None,
                        elapsed=time.perf_counter() - started, executor=placement.label,

@@ -84,13 +84,18 @@ def _observe(result: Any, observer: Observer | None, observables: Sequence[Obser
             else:
                 row = k
                 k += 1
+                if observer is None:  # run_chunk makes one when an observable has an expression
+                    raise RuntimeError("no observer for the observables' expressions")
                 if obs.reduction == "final":
                     value = float(observer.evaluate(result, [result.final.t])[row, 0])
                 elif obs.reduction == "at":
-                    if not result.segments[0].t_start <= obs.time <= result.final.t:
+                    at = obs.time
+                    if at is None:  # Observable requires a time for "at"
+                        raise RuntimeError("'at' without a time")
+                    if not result.segments[0].t_start <= at <= result.final.t:
                         value = None
                     else:
-                        value = float(observer.evaluate(result, [obs.time])[row, 0])
+                        value = float(observer.evaluate(result, [at])[row, 0])
                 elif stored is None:
                     value = None
                 else:
@@ -110,9 +115,10 @@ def run_chunk(chunk: Chunk) -> list[tuple[int, tuple[Any, ...], Any]]:
     ``(status, t_final, jumps, *counts, *observables, error)``.
     """
     compiled = compiled_for(chunk.model, chunk.key)
-    texts = [o.expression for o in chunk.observables if o.function is None]
+    # (an Observable has exactly one of expression and function)
+    texts = [o.expression for o in chunk.observables if o.expression is not None]
     observer = Observer(compiled, texts) if texts else None
-    out = []
+    out: list[tuple[int, tuple[Any, ...], Any]] = []
     for index, run in chunk.runs:
         try:
             result = simulate(compiled, **run, **chunk.options)

@@ -332,9 +332,10 @@ def fit_events(
         raise DataError(f"has sensor id(s) {', '.join(map(repr, unknown))} that the sensors "
                         f"mapping does not name (it has {', '.join(sensor_map)})",
                         column="sensor", source=events.source)
-    pair = tuple(pair) if pair is not None else tuple(list(sensor_map)[:2])  # type: ignore[assignment]
-    if len(pair) != 2 or pair[0] == pair[1] or not set(pair) <= set(sensor_map):
-        raise ValueError(f"pair must name two different sensors of the mapping (got {pair!r})")
+    given = tuple(pair) if pair is not None else tuple(list(sensor_map)[:2])
+    if len(given) != 2 or given[0] == given[1] or not set(given) <= set(sensor_map):
+        raise ValueError(f"pair must name two different sensors of the mapping (got {given!r})")
+    pair = (given[0], given[1])
     if isinstance(fit, str):
         fit = [n.strip() for n in fit.split(",") if n.strip()]
     fit = list(fit)
@@ -384,7 +385,8 @@ def fit_events(
     margin = 2 * spacing
     rate_scale = float(np.median(measured.rate))
     n_m = len(measured)
-    options = dict(simulation_options or {})
+    # (their values are checked by simulate)
+    options: dict[str, Any] = dict(simulation_options or {})
     cache: dict[tuple[float, ...], tuple[np.ndarray, Passages, int]] = {}
     count = [0]
     limit = [max_evaluations]  # lowered while optimising to keep simulations for the errors

@@ -158,7 +158,7 @@ class MassFit:
     def table(self) -> str:
         """A text table of the mass estimate, the region and the eq. (4) fit."""
         r, e = self.region, self.eq4
-        rows = [
+        rows: list[list[object]] = [
             ["m (-40 dB/dec region)", self.m, self.m_se, "kg"],
             ["region", f"{r.f_low_hz:.4g}-{r.f_high_hz:.4g}", "", "Hz"],
             ["region slope", r.slope, r.slope_se, "dB/dec"],

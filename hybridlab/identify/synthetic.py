@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -125,7 +126,7 @@ def sensor_events(model: Model | CompiledModel | str | Path, *, sensors: SensorM
                   scenario: str | None = None, params: Mapping[str, float] | None = None,
                   t_end: float | None = None, latency: float = 0.0, jitter: float = 0.0,
                   quantum: float = 0.0, rng: np.random.Generator | int | None = None,
-                  **simulation_options: object) -> SensorEvents:
+                  **simulation_options: Any) -> SensorEvents:
     """Sensor edges from a simulation, as a data logger would record them.
 
     Each edge is delayed by ``latency`` plus Gaussian ``jitter`` (standard deviation, s)

@@ -286,7 +286,8 @@ def fit_targets(
     for i, t in enumerate(targets):
         experiments.setdefault(t.experiment(), []).append(i)
     observers = _Observers(compiled)
-    options = dict(simulation_options or {})
+    # (their values are checked by simulate)
+    options: dict[str, Any] = dict(simulation_options or {})
     sigma = np.array([t.sigma for t in targets])
     reference = np.array([t.reference for t in targets])
     cache: dict[tuple[float, ...], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}

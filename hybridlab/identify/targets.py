@@ -301,6 +301,9 @@ def _events(target: Target, result: SimulationResult, observers: _Observers) -> 
         t = np.asarray(result.jumps.where(transition=target.transition).t, dtype=float)
         return Crossings(t, np.ones(len(t), dtype=int), np.full(len(t) + 1, np.nan),
                          float(result.t[0]), float(result.t[-1]))
+    if target.observable is None:  # Target checks it has exactly one of the two
+        raise TargetError(f"a {target.kind!r} target needs exactly one of observable and "
+                          "transition", key="observable")
     t = _sample_times(target, result)
     crossings = level_crossings(t, observers.values(target.observable, result, t),
                                 target.level)

@@ -275,13 +275,18 @@ def _relations(atoms: list[Atom], source: str, key: str) -> list[str]:
     return out
 
 
+#: a component transition: source and target location ids, synchronisation label (``""``:
+#: none), guard relations, reset (variable -> expression), urgent (asap), XML path
+_Transition = tuple[str, str, str, list[str], dict[str, str], bool, str]
+
+
 @dataclass
 class _Automaton:
     inst: Instance
     names: dict[str, str]
     flows: dict[str, dict[str, str]]  # location id -> state -> rhs
     invariants: dict[str, list[Atom]]
-    transitions: list[tuple[str, str, str, list[str], dict[str, str], bool, str]]
+    transitions: list[_Transition]
 
 
 def _automaton(inst: Instance, names: dict[str, str], ctx: _Ctx) -> _Automaton:
@@ -415,10 +420,10 @@ def _product(autos: list[_Automaton], starts: list[tuple[str, ...]], ctx: _Ctx
         if len(seen) > _MAX_MODES:
             _fail(ctx.source, "component", f"the product has more than {_MAX_MODES} "
                   "locations", str(len(seen)))
-        moves = []
+        moves: list[tuple[list[tuple[int, _Transition]], str]] = []
         for i, au in enumerate(autos):
             for tr in au.transitions:
-                src, dst, label, guard, reset, asap, path = tr
+                src, _, label, _, _, _, _ = tr
                 if src != combo[i]:
                     continue
                 parts = [j for j, alpha in enumerate(alphabets) if label and label in alpha]
@@ -431,12 +436,12 @@ def _product(autos: list[_Automaton], starts: list[tuple[str, ...]], ctx: _Ctx
                             if t[0] == combo[j] and t[2] == label] for j in parts[1:]]
                 for rest in itertools.product(*options):
                     moves.append(([(i, tr), *rest], label))
-        for parts, label in moves:
+        for moved, label in moves:
             target = list(combo)
             guard: list[str] = []
             reset: dict[str, str] = {}
             asap = False
-            for j, (_, dst, _, g, r, a, path) in parts:
+            for j, (_, dst, _, g, r, a, path) in moved:
                 target[j] = dst
                 guard += g
                 asap |= a
@@ -446,7 +451,7 @@ def _product(autos: list[_Automaton], starts: list[tuple[str, ...]], ctx: _Ctx
                               "transitions assign the same variable", var)
                     reset[var] = rhs
             tgt = tuple(target)
-            edges.append((combo, tgt, label, guard, reset, asap, parts[0][1][6]))
+            edges.append((combo, tgt, label, guard, reset, asap, moved[0][1][6]))
             if tgt not in seen:
                 seen.add(tgt)
                 queue.append(tgt)
@@ -462,11 +467,11 @@ def _product(autos: list[_Automaton], starts: list[tuple[str, ...]], ctx: _Ctx
         base = label.replace(".", "_") if label else "tau"
         used[base] = used.get(base, 0) + 1
         name = base if used[base] == 1 else f"{base}_{used[base]}"
-        tr: dict[str, Any] = {"name": name, "source": modes[combo], "target": modes[tgt],
-                              "guard": guard or ["0 <= 0"]}
+        item: dict[str, Any] = {"name": name, "source": modes[combo], "target": modes[tgt],
+                                "guard": guard or ["0 <= 0"]}
         if reset:
-            tr["reset"] = reset
-        transitions.append(tr)
+            item["reset"] = reset
+        transitions.append(item)
     return modes, transitions
 
 
@@ -556,14 +561,14 @@ def loads_spaceex(xml: str | bytes, cfg: str | None = None, *, source: str = "<s
     hi_p: dict[str, float] = {}
     state_atoms = []
     state_set = {symbols[s] for s in states}
-    for a in init_atoms:
-        if a.lhs.expr is None or a.rhs.expr is None:
+    for atom in init_atoms:
+        if atom.lhs.expr is None or atom.rhs.expr is None:
             continue
-        free = (a.lhs.expr - a.rhs.expr).free_symbols
+        free = (atom.lhs.expr - atom.rhs.expr).free_symbols
         if free & state_set or not free:
-            state_atoms.append(a)
+            state_atoms.append(atom)
             continue
-        _constant_bound(a, ctx, lo_p, hi_p)
+        _constant_bound(atom, ctx, lo_p, hi_p)
     for c in constants:
         if c in lo_p and c in hi_p:
             params[c] = lo_p[c] if lo_p[c] == hi_p[c] else (lo_p[c], hi_p[c])

@@ -373,8 +373,9 @@ def build_symbolic(model: Model) -> SymbolicModel:
                         f"{key}.flow", missing[0])
         flow_texts = {s: (mode.flow[s], f"{key}.flow.{s}") for s in mode.flow}
         for s in state_names:
-            if s not in flow_texts and s not in mech_states and model.states[s].flow is not None:
-                flow_texts[s] = (model.states[s].flow, f"states.{s}.flow")
+            if (s not in flow_texts and s not in mech_states
+                    and (state_flow := model.states[s].flow) is not None):
+                flow_texts[s] = (state_flow, f"states.{s}.flow")
         flow = tuple(
             scope.apply(_parse(flow_texts[s][0], names, flow_texts[s][1]), flow_texts[s][1])
             if s in flow_texts else None

@@ -34,8 +34,16 @@ from hybridlab.simulation.location import (
     sample_step,
 )
 from hybridlab.simulation.options import SimulationOptions
-from hybridlab.simulation.result import Event, FinalState, Segment, SimulationResult, Status
+from hybridlab.simulation.result import (
+    Event,
+    FinalState,
+    Segment,
+    SimulationResult,
+    SimulationStats,
+    Status,
+)
 from hybridlab.simulation.sliding import equivalent_sigma, equivalent_sigma_batch, resolve_switches
+from hybridlab.simulation.tables import EventTable, SegmentTable
 from hybridlab.simulation.zeno import ZenoTracker
 from hybridlab.symbolic.compile import CompiledMode, CompiledModel, CompiledTransition
 
@@ -46,6 +54,12 @@ _SOLVERS = {
     "Radau": integrate.Radau, "BDF": integrate.BDF, "LSODA": integrate.LSODA,
 }
 _NO_SIGMA = np.empty(0)
+
+
+def _no_conditions(mode: CompiledMode) -> RuntimeError:
+    """The error for a guard or invariant monitor of a mode without conditions (monitors()
+    makes those rows only for a mode with a guard or an invariant, so never raised)."""
+    return RuntimeError(f"mode {mode.name!r}: a guard or invariant monitor, but no conditions")
 
 
 @dataclass(frozen=True)
@@ -99,8 +113,8 @@ class _Run:
                           if (sched := tr.period_and_phase(p)) is not None}
         self.h_last: float | None = None
         self.zeno = ZenoTracker(options.zeno_window, options.zeno_tol, 4 * options.event_tol)
-        self.stats = {"steps": 0, "refinements": 0, "events_located": 0,
-                      "segments": 0}
+        self.stats: SimulationStats = {"steps": 0, "refinements": 0, "events_located": 0,
+                                       "segments": 0}
 
     # ----- small helpers -------------------------------------------------------------------
     def xtol(self, t: float) -> float:
@@ -285,11 +299,15 @@ class _Run:
         cols = np.arange(tau.size)
         for r, row in enumerate(rows):
             if row.kind == "guard":
+                if cond is None:
+                    raise _no_conditions(mode)
                 rows_of = mode.guard_rows[row.ref]
                 g, dg = cond[0][rows_of], cond[1][rows_of]
                 i = np.argmin(g, axis=0)
                 phi[r], dphi[r] = -g[i, cols], -dg[i, cols]
             elif row.kind == "invariant":
+                if cond is None:
+                    raise _no_conditions(mode)
                 phi[r], dphi[r] = cond[0][n_guard_rows + row.ref], cond[1][n_guard_rows + row.ref]
             elif row.kind == "switch":
                 if sw is None:
@@ -298,6 +316,9 @@ class _Run:
                 phi[r] = sigma[row.ref] * sw[0][row.ref]
                 dphi[r] = sigma[row.ref] * sw[1][row.ref]
             else:  # sliding exit: |sigma_eq| reaching 1
+                if eq is None:  # monitors() makes exit rows only for sliding switches
+                    raise RuntimeError(f"mode {mode.name!r}: a sliding-exit monitor while no "
+                                       "switch slides")
                 value = 1.0 - np.abs(eq[self.sliding.index(row.ref)])
                 phi[r] = value
                 dphi[r] = np.gradient(value, tau) if tau.size > 1 else 0.0
@@ -306,12 +327,17 @@ class _Run:
     def monitor_value(self, mode: CompiledMode, row: _Monitor, t: float, x: np.ndarray) -> float:
         """One monitor's value at one point (the root finder's inner loop)."""
         p = self.p
+        conditions = mode.conditions
         if row.kind == "guard":
-            return -float(np.min(mode.conditions.values(t, x, p, _NO_SIGMA)[
+            if conditions is None:
+                raise _no_conditions(mode)
+            return -float(np.min(conditions.values(t, x, p, _NO_SIGMA)[
                 mode.guard_rows[row.ref]]))
         if row.kind == "invariant":
-            return float(mode.conditions.values(t, x, p, _NO_SIGMA)[mode.invariant_offset
-                                                                    + row.ref])
+            if conditions is None:
+                raise _no_conditions(mode)
+            return float(conditions.values(t, x, p, _NO_SIGMA)[mode.invariant_offset
+                                                               + row.ref])
         if row.kind == "switch":
             return float(self.sigma[row.ref]
                          * mode.switch_fields.values(t, x, p, self.sigma)[row.ref])
@@ -437,7 +463,8 @@ class _Run:
 
             def jac(tt: float, y: np.ndarray) -> np.ndarray:
                 return mode.jacobian(tt, y, p, sigma)
-        kwargs = {"rtol": self.o.rtol, "atol": self.o.atol, "max_step": self.o.max_step}
+        kwargs: dict[str, object] = {"rtol": self.o.rtol, "atol": self.o.atol,
+                                     "max_step": self.o.max_step}
         if self.o.stiff and jac is not None:
             kwargs["jac"] = jac
         if self.h_last is not None:
@@ -685,8 +712,9 @@ class _Run:
             self.segments.append(Segment(mode.name, self.j, np.array([t]), x[:, None].copy()))
         final = FinalState(float(t), self.j, mode.name, self.state_map(x))
         parameters = dict(zip(self.c.parameter_names, map(float, self.p), strict=True))
-        return SimulationResult(status, message, tuple(self.events), tuple(self.segments), final,
-                                self.names, zeno_time, dict(self.stats), parameters, self.c)
+        return SimulationResult(status, message, EventTable.from_events(self.events, self.names),
+                                SegmentTable.from_segments(self.segments, len(self.names)), final,
+                                self.names, zeno_time, self.stats.copy(), parameters, self.c)
 
     def due_any(self, mode: CompiledMode, t: float) -> bool:
         return any(self.due(tr, t) for tr in mode.outgoing)

@@ -58,7 +58,7 @@ class Observer:
                 continue  # not defined in this mode: evaluating there is an error
             self._per_mode[name] = VectorFunction(exprs, TIME, sym.states, sym.parameters, ())
 
-    def evaluate(self, result, t: Sequence[float] | np.ndarray | None = None,
+    def evaluate(self, result, t: float | Sequence[float] | np.ndarray | None = None,
                  params: dict[str, float] | None = None) -> np.ndarray:
         """Values at times ``t`` (post-jump at jump instants), or at every stored point.
 

@@ -5,17 +5,17 @@ from __future__ import annotations
 import csv
 import enum
 import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, TypedDict
 
 import numpy as np
 
 from hybridlab._files import replace_file, replace_text
 from hybridlab.simulation.tables import Event, EventTable, Segment, SegmentTable
 
-__all__ = ["Status", "Event", "Segment", "FinalState", "SimulationResult"]
+__all__ = ["Status", "Event", "Segment", "FinalState", "SimulationStats", "SimulationResult"]
 
 
 class Status(enum.Enum):
@@ -51,6 +51,21 @@ class FinalState:
     state: Mapping[str, float]
 
 
+class SimulationStats(TypedDict, total=False):
+    """What :attr:`SimulationResult.stats` holds: the run's counters and which backend ran it
+    (a run has the keys that apply to it)."""
+
+    steps: int
+    refinements: int
+    events_located: int
+    segments: int
+    quiet_steps: int
+    backend: str
+    compiled_cache_hit: bool
+    fallback: str
+    handoff: str
+
+
 @dataclass(frozen=True)
 class SimulationResult:
     """The outcome of :func:`hybridlab.simulate`.
@@ -73,8 +88,9 @@ class SimulationResult:
     state_names : tuple of str
     zeno_time : float or None
         Estimated accumulation time when ``status`` is ``ZENO``.
-    stats : mapping
-        Counters: steps, flow evaluations, event locations, refinements.
+    stats : SimulationStats
+        Counters: steps, flow evaluations, event locations, refinements; and the
+        backend that ran the run.
     """
 
     status: Status
@@ -84,7 +100,7 @@ class SimulationResult:
     final: FinalState
     state_names: tuple[str, ...]
     zeno_time: float | None = None
-    stats: Mapping[str, int] = field(default_factory=dict)
+    stats: SimulationStats = field(default_factory=SimulationStats)
     parameters: Mapping[str, float] = field(default_factory=dict)
     compiled: Any = field(default=None, repr=False, compare=False)
 
@@ -116,8 +132,8 @@ class SimulationResult:
         from hybridlab.simulation.observe import Observer
 
         single = isinstance(expressions, str)
-        values = Observer(self.compiled, [expressions] if single else list(expressions)
-                          ).evaluate(self, t)
+        texts = [expressions] if isinstance(expressions, str) else list(expressions)
+        values = Observer(self.compiled, texts).evaluate(self, t)
         if t is not None and np.ndim(t) == 0:
             values = values[:, 0]
         return values[0] if single else values
@@ -274,7 +290,8 @@ class SimulationResult:
     def save(self, path: str | Path) -> None:
         """Write by suffix: ``.json``, ``.csv`` or ``.npz``."""
         suffix = Path(path).suffix.lower()
-        writers = {".json": self.to_json, ".csv": self.to_csv, ".npz": self.to_npz}
+        writers: dict[str, Callable[[str | Path], object]] = {
+            ".json": self.to_json, ".csv": self.to_csv, ".npz": self.to_npz}
         if suffix not in writers:
             raise ValueError(f"output file must end in .json, .csv or .npz (got {str(path)!r})")
         writers[suffix](path)

@@ -17,7 +17,7 @@ from __future__ import annotations
 import operator
 from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -110,7 +110,7 @@ def _new(cls: type, **fields: object) -> Any:
     ``Event`` and ``Segment`` have no ``__post_init__``, so this is the object
     their ``__init__`` makes, at half the cost.
     """
-    obj = object.__new__(cls)
+    obj: Any = object.__new__(cls)
     obj.__dict__.update(fields)
     return obj
 
@@ -120,6 +120,13 @@ def _codes(values: Sequence[str]) -> tuple[np.ndarray, tuple[str, ...]]:
     table = tuple(dict.fromkeys(values))
     index = {v: k for k, v in enumerate(table)}
     return np.array([index[v] for v in values], dtype=np.int64), table
+
+
+class _BySegment(Protocol):
+    """Indexed by segment number: a sequence, or any object with ``__getitem__`` (the
+    compiled backend's per-segment dense output, made when read)."""
+
+    def __getitem__(self, k: int, /) -> Any: ...
 
 
 class _Store:
@@ -246,7 +253,8 @@ class _Table(Sequence):
         if not isinstance(other, (_Table, tuple)):
             return NotImplemented
         if isinstance(other, _Table) and other._store is self._store and (
-                other._rows is self._rows or np.array_equal(self._rows, other._rows)):
+                other._rows is self._rows or (self._rows is not None and other._rows is not None
+                                              and np.array_equal(self._rows, other._rows))):
             return True
         return len(self) == len(other) and all(a is b or a == b
                                                for a, b in zip(self, other, strict=True))
@@ -350,7 +358,7 @@ class _EventRecords(_Records):
         return self.names, len(self._made), dict(self.columns)
 
     def __setstate__(self, state: tuple) -> None:
-        self.__init__(*state)
+        type(self).__init__(self, *state)
 
 
 class _EventObjects(_Objects):
@@ -375,7 +383,7 @@ class _EventObjects(_Objects):
         return self.objects, self.names
 
     def __setstate__(self, state: tuple) -> None:
-        self.__init__(*state)
+        type(self).__init__(self, *state)
 
 
 class EventTable(_Table):
@@ -404,6 +412,7 @@ class EventTable(_Table):
 
     __slots__ = ()
     _TEXT_COLUMNS = ("transition", "source", "target", "kind")
+    _store: _EventRecords | _EventObjects
 
     @classmethod
     def from_events(cls, events: Sequence[Event], state_names: Sequence[str]) -> EventTable:
@@ -532,7 +541,7 @@ class _SegmentRecords(_Records):
 
     def __init__(self, mode: np.ndarray, modes: tuple[str, ...], j: np.ndarray,
                  times: np.ndarray, states: np.ndarray, first: np.ndarray, count: np.ndarray,
-                 interpolants: Callable[[int], Any] | Sequence[Any] | None) -> None:
+                 interpolants: _BySegment | None) -> None:
         self.mode, self.modes, self.j = mode, modes, j
         self.times, self.states, self.first, self.count = times, states, first, count
         self.interpolants = interpolants
@@ -576,7 +585,7 @@ class _SegmentRecords(_Records):
         return tuple(getattr(self, n) for n in self.__slots__[:-1])
 
     def __setstate__(self, state: tuple) -> None:
-        self.__init__(*state)
+        type(self).__init__(self, *state)
 
 
 class _SegmentObjects(_Objects):
@@ -623,6 +632,7 @@ class SegmentTable(_Table):
 
     __slots__ = ()
     _TEXT_COLUMNS = ("mode",)
+    _store: _SegmentRecords | _SegmentObjects
 
     @classmethod
     def from_segments(cls, segments: Sequence[Segment], n_states: int) -> SegmentTable:
@@ -632,7 +642,7 @@ class SegmentTable(_Table):
     @classmethod
     def from_columns(cls, *, mode: np.ndarray, modes: Sequence[str], j: np.ndarray,
                      times: np.ndarray, states: np.ndarray, first: np.ndarray,
-                     count: np.ndarray, interpolants: Sequence[Any] | None = None
+                     count: np.ndarray, interpolants: _BySegment | None = None
                      ) -> SegmentTable:
         """A table of segments given column by column; each :class:`Segment` is made when read.
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -83,7 +84,7 @@ class ZenoTracker:
         >>> z.estimate("bounce", 1.5)
         2.0
         """
-        times = self._times.get(name, ())
+        times: Sequence[float] = self._times.get(name, ())
         if len(times) < 3:
             return t
         d_prev, d_last = times[-2] - times[-3], times[-1] - times[-2]

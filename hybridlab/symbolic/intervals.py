@@ -358,6 +358,11 @@ def _general_power(base: Interval, exponent: Interval) -> Interval:
         raise IntervalError(str(exc)) from None
 
 
+def _unary(f: Callable[[Interval], Interval], arg: Node) -> Node:
+    """The node applying ``f`` to the value of ``arg``."""
+    return lambda env: f(arg(env))
+
+
 def _compile(expr: sp.Expr, index: Mapping[sp.Symbol, int], lenient: bool = False) -> Node:
     """A closure enclosing ``expr``; ``lenient``: what it cannot enclose is the whole line."""
     if lenient and not (expr.is_Symbol or expr.is_Number or expr.is_NumberSymbol
@@ -411,8 +416,7 @@ def _compile(expr: sp.Expr, index: Mapping[sp.Symbol, int], lenient: bool = Fals
         return lambda env: _atan2(args[0](env), args[1](env))
     for kind, f in _UNARY.items():
         if isinstance(expr, kind):
-            arg = args[0]
-            return lambda env, f=f: f(arg(env))
+            return _unary(f, args[0])
     raise IntervalError(f"interval arithmetic does not support {type(expr).__name__} in {expr}")
 
 

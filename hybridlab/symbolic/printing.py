@@ -87,7 +87,7 @@ class ScalarPrinter(_Guarded, PythonCodePrinter):
 
     def _print_sign(self, expr: sp.Expr) -> str:
         if self._sign is None:
-            return super()._print_sign(expr)  # type: ignore[misc]
+            return super()._print_sign(expr)
         return f"{self._sign}({self._print(expr.args[0])})"
 
     def _print_Min(self, expr: sp.Expr) -> str:

@@ -65,7 +65,7 @@ from hybridlab.simulation.compiled.kernel import (
 from hybridlab.simulation.compiled.signatures import watch_addresses
 from hybridlab.simulation.location import Trigger
 from hybridlab.simulation.options import SimulationOptions
-from hybridlab.simulation.result import FinalState, SimulationResult, Status
+from hybridlab.simulation.result import FinalState, SimulationResult, SimulationStats, Status
 from hybridlab.simulation.tables import EventTable, SegmentTable
 from hybridlab.simulation.zeno import ZenoVerdict
 from hybridlab.symbolic.compile import CompiledModel
@@ -254,7 +254,9 @@ class Prepared:
             types = tuple(map(run_kernel.typeof_pyval, args))
             if types not in run_kernel.overloads:
                 run_kernel.compile(types)  # (loads the disk cache, or compiles)
-            entry = run_kernel.overloads[types].entry_point
+            # numba's CompileResult is a namedtuple made from a list of field names, which
+            # its type hints do not declare
+            entry = run_kernel.overloads[types].entry_point  # type: ignore[attr-defined]
             self.entries["kernel"] = entry
         return entry
 
@@ -472,7 +474,7 @@ def prepare(compiled: CompiledModel, max_lines: int | None = None) -> Prepared:
 
 def _fallback(compiled: CompiledModel, reason: str, **kw) -> SimulationResult:
     result = engine.run(compiled, **kw)
-    stats = {**result.stats, "backend": "reference", "fallback": reason}
+    stats: SimulationStats = {**result.stats, "backend": "reference", "fallback": reason}
     return SimulationResult(result.status, result.message, result.events, result.segments,
                             result.final, result.state_names, result.zeno_time, stats,
                             result.parameters, result.compiled)
@@ -521,7 +523,7 @@ def run(compiled: CompiledModel, *, t0: float, x0: np.ndarray, mode: str, t_end:
     entry = prep.kernel_entry(args)  # (compiles the kernel on a cold cache)
     if deadline is not None:  # the limit counts the run, not the compilation
         deadline = engine.deadline_of(o)
-        watch[4] = deadline
+        watch[4] = deadline or 0  # (not None: o.time_limit is set)
     out = entry(*args)
     code, EV, PT, ST, SG, kstats, info, last_t, last_x, last_m, j = out[:11]
     if code == HANDOFF:
@@ -575,9 +577,10 @@ def _hand_off(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, out
                     for r, g in zip(cp_rows, cp_graz, strict=True)]
     result = run.drive(float(cp_f[0]), cp_x.copy(), mode, _ENTRIES[kind], triggers)
     t_hand = float(cp_f[0])
-    stats = {**result.stats, "backend": "compiled", "compiled_cache_hit": prep.cache_hit,
-             "handoff": f"the reference engine continued from t = {t_hand!r} "
-                        f"({_ENTRIES[kind]})"}
+    stats: SimulationStats = {**result.stats, "backend": "compiled",
+                              "compiled_cache_hit": prep.cache_hit,
+                              "handoff": f"the reference engine continued from t = {t_hand!r} "
+                                         f"({_ENTRIES[kind]})"}
     return SimulationResult(result.status, result.message, result.events, result.segments,
                             result.final, result.state_names, result.zeno_time, stats,
                             result.parameters, result.compiled)
@@ -619,7 +622,8 @@ def _event_columns(EV: np.ndarray, n: int, prep: Prepared) -> dict:
 
 
 def _records(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, EV: np.ndarray,
-             PT: np.ndarray, ST: np.ndarray, SG: np.ndarray, last: tuple | None = None
+             PT: np.ndarray, ST: np.ndarray, SG: np.ndarray,
+             last: tuple[float, np.ndarray, int, int] | None = None
              ) -> tuple[EventTable, SegmentTable]:
     """Events and segments from the kernel's records, as tables that make each object when read.
 
@@ -637,7 +641,7 @@ def _records(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, EV: 
     # one copy of the points for the whole run; each segment holds views of it
     points = np.empty((1 + n, m + extra))
     points[:, :m] = PT.T
-    if extra:
+    if extra and last is not None:
         points[0, m], points[1:, m] = last[0], last[1]
         mode, seg_j = np.append(mode, last[2]), np.append(seg_j, last[3])
         first, count = np.append(first, m), np.append(count, 1)
@@ -679,10 +683,10 @@ def _result(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, code:
         status, message = Status.INTERRUPTED, f"interrupted at t = {t!r}"
     else:  # pragma: no cover - the kernel returns only the codes above
         raise RuntimeError(f"unknown kernel code {code}")
-    stats = {"steps": int(kstats[0]), "refinements": int(kstats[1]),
-             "events_located": int(kstats[2]), "segments": int(kstats[3]),
-             "quiet_steps": int(kstats[4]), "backend": "compiled",
-             "compiled_cache_hit": prep.cache_hit}
+    stats: SimulationStats = {"steps": int(kstats[0]), "refinements": int(kstats[1]),
+                              "events_located": int(kstats[2]), "segments": int(kstats[3]),
+                              "quiet_steps": int(kstats[4]), "backend": "compiled",
+                              "compiled_cache_hit": prep.cache_hit}
     final = FinalState(t, int(j), mode, dict(zip(names, map(float, x), strict=True)))
     parameters = dict(zip(compiled.parameter_names, map(float, p), strict=True))
     return SimulationResult(status, message, events, segments, final, names, zeno_time, stats,

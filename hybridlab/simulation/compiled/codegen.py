@@ -108,7 +108,8 @@ def _body(exprs: Sequence[sp.Expr], names: dict[sp.Symbol, str], indent: str) ->
     local = {s: _local(s, names) for s in names}
     try:
         low = lower(exprs, local)
-        reads = [f"{indent}{local[s]} = {names[s]}" for s in sorted(low.used, key=local.get)]
+        reads = [f"{indent}{local[s]} = {names[s]}"
+                 for s in sorted(low.used, key=local.__getitem__)]
         return reads + low.statements(scalar_printer(low.names, sign="_sign"), indent,
                                       "out[{i}] = {value}")
     except PrintError as exc:

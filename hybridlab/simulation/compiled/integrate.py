@@ -63,11 +63,12 @@ def _nonzero(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     (array([0, 0, 1, 3]), array([0, 0, 1]), array([0.5 , 0.25, 2.  ]))
     """
     rows = np.atleast_2d(np.asarray(rows, dtype=np.float64))
-    start, column = [0], []
+    start: list[int] = [0]
+    columns: list[int] = []
     for row in rows:
-        column.extend(np.flatnonzero(row))
-        start.append(len(column))
-    column = np.array(column, dtype=np.int64)
+        columns.extend(np.flatnonzero(row))
+        start.append(len(columns))
+    column = np.array(columns, dtype=np.int64)
     value = rows[np.repeat(np.arange(rows.shape[0]), np.diff(start)), column]
     return np.array(start, dtype=np.int64), column, np.ascontiguousarray(value)
 
