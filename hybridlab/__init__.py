@@ -48,6 +48,7 @@ if TYPE_CHECKING:  # the public names, loaded on first use (hybridlab._lazy)
     )
     from hybridlab.simulation import (
         Event,
+        HybridProblem,
         SimulationOptions,
         SimulationResult,
         Status,
@@ -66,6 +67,7 @@ __all__ = [
     "Event",
     "ExpressionError",
     "GraphReport",
+    "HybridProblem",
     "HybridlabError",
     "Initial",
     "Mechanics",

@@ -26,6 +26,7 @@ from hybridlab.model.schema import Model
 from hybridlab.reachability.falsify import Counterexample, FalsifyOptions
 from hybridlab.reachability.spec import Avoid, Spec, SpecError, parse_spec
 from hybridlab.reachability.verdict import Verdict, VerdictStatus, check
+from hybridlab.simulation.problem import HybridProblem
 from hybridlab.symbolic.compile import CompiledModel
 
 __all__ = ["Avoid", "Counterexample", "FalsifyOptions", "SafetyAssertionError", "SpecError",
@@ -47,11 +48,11 @@ class SafetyAssertionError(HybridlabError, AssertionError):
 
 
 def check_safety(
-    model: Model | CompiledModel | str | Path,
+    model: Model | CompiledModel | str | Path | HybridProblem,
     *,
-    initial: Mapping[str, float | tuple[float, float]] | Any,
-    t_end: float,
-    safe: str | Avoid | Spec | Iterable[str | Avoid | Spec],
+    initial: Mapping[str, float | tuple[float, float]] | Any = None,
+    t_end: float | None = None,
+    safe: str | Avoid | Spec | Iterable[str | Avoid | Spec] = (),
     executor: Any = None,
     **kwargs: Any,
 ) -> Verdict:
@@ -68,6 +69,14 @@ def check_safety(
     ...                  safe=["v >= -13"], prove=False)
     >>> v.status.name, v.counterexample.mode, round(v.counterexample.t, 6)
     ('UNSAFE', 'fall', 1.325178)
+
+    A :class:`~hybridlab.HybridProblem` carries the initial set and horizon:
+
+    >>> import hybridlab
+    >>> problem = hybridlab.HybridProblem.build("models/bouncing_ball.toml",
+    ...                                         initial={"h": (5.0, 10.0)}, t_end=2.0)
+    >>> check_safety(problem, safe="h <= 10.5").status.name
+    'SAFE'
     """
     return check(model, initial=initial, t_end=t_end, safe=safe, executor=executor, **kwargs)
 
@@ -91,11 +100,11 @@ def _message(verdict: Verdict) -> str:
 
 
 def assert_safe(
-    model: Model | CompiledModel | str | Path,
+    model: Model | CompiledModel | str | Path | HybridProblem,
     *,
-    initial: Mapping[str, float | tuple[float, float]] | Any,
-    t_end: float,
-    safe: str | Avoid | Spec | Iterable[str | Avoid | Spec],
+    initial: Mapping[str, float | tuple[float, float]] | Any = None,
+    t_end: float | None = None,
+    safe: str | Avoid | Spec | Iterable[str | Avoid | Spec] = (),
     params: Mapping[str, float | tuple[float, float]] | None = None,
     inputs: Mapping[str, tuple[float, float]] | None = None,
     allow_unknown: bool = False,

@@ -220,13 +220,13 @@ def user_error_cases(tmp_path: Path) -> list[tuple[list[str], str]]:
         (["graph", str(bad)],
          f"hybridlab: error: {bad}: modes.fall.flow.v: unknown symbol (token 'gg')"),
         (["simulate", ball, "--set", "q=1"],
-         "hybridlab: error: unknown parameter 'q'; expected one of: g, e"),
+         "hybridlab: error: params: unknown parameter 'q'; expected one of: g, e"),
         (["simulate", ball, "--set", "g=abc"],
          "hybridlab: error: --set g: 'abc' is not a number"),
         (["simulate", ball, "--set", "g"],
          "hybridlab: error: --set expects NAME=VALUE (got 'g')"),
         (["simulate", ball, "--init", "w=1"],
-         "hybridlab: error: unknown state 'w'; expected one of: h, v"),
+         "hybridlab: error: initial: unknown state 'w'; expected one of: h, v"),
         (["simulate", ball, "--init", "h=ten"],
          "hybridlab: error: --init h: 'ten' is not a number"),
         (["simulate", ball, "--t-end", "1", "--out", str(tmp_path / "ball.txt")],
@@ -244,9 +244,10 @@ def user_error_cases(tmp_path: Path) -> list[tuple[list[str], str]]:
          "hybridlab: error: argument --method: invalid choice: 'Euler' (choose from 'RK45', "
          "'RK23', 'DOP853', 'Radau', 'BDF', 'LSODA')"),
         (["simulate", ball, "--scenario", "nope"],
-         "hybridlab: error: unknown scenario 'nope'; the model has: default, zeno, benchmark"),
+         "hybridlab: error: scenario: unknown scenario 'nope'; the model has: default, zeno, "
+         "benchmark"),
         (["simulate", ball, "--mode", "rise"],
-         "hybridlab: error: unknown mode 'rise'; the model has: fall"),
+         "hybridlab: error: mode: unknown mode 'rise'; expected one of: fall"),
         (["check", ball, "--frob"], "hybridlab: error: unrecognized arguments: --frob"),
     ]
 

@@ -11,8 +11,9 @@ from hypothesis import given, settings
 from strategies import spec_texts
 
 import hybridlab
-from hybridlab.reachability.falsify import FalsifyOptions, falsify, resolve_problem
+from hybridlab.reachability.falsify import FalsifyOptions, falsify
 from hybridlab.reachability.spec import Avoid, Spec, SpecError, as_specs, parse_spec
+from hybridlab.simulation.problem import HybridProblem
 from hybridlab.verify import SafetyAssertionError, VerdictStatus, assert_safe, check_safety
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -152,18 +153,18 @@ def test_avoid_regions_from_boxes_and_polytopes(ball):
 # ----------------------------------------------------------------------------- problem
 def test_problem_arguments_are_checked_by_name(ball):
     with pytest.raises(ValueError, match="initial: unknown state 'w'"):
-        resolve_problem(ball, initial={"w": (0, 1)}, t_end=1.0)
+        HybridProblem.build(ball, initial={"w": (0, 1)}, t_end=1.0)
     with pytest.raises(ValueError, match=r"initial\['h'\] needs lo <= hi"):
-        resolve_problem(ball, initial={"h": (2, 1)}, t_end=1.0)
+        HybridProblem.build(ball, initial={"h": (2, 1)}, t_end=1.0)
     with pytest.raises(ValueError, match="params: unknown parameter 'G'"):
-        resolve_problem(ball, initial={}, t_end=1.0, params={"G": 1.0})
+        HybridProblem.build(ball, initial={}, t_end=1.0, params={"G": 1.0})
     with pytest.raises(ValueError, match="inputs: 'e' is also given in params"):
-        resolve_problem(ball, initial={}, t_end=1.0, params={"e": 0.5}, inputs={"e": (0, 1)})
-    with pytest.raises(ValueError, match="t_end must be finite"):
-        resolve_problem(ball, initial={}, t_end=math.inf)
+        HybridProblem.build(ball, initial={}, t_end=1.0, params={"e": 0.5}, inputs={"e": (0, 1)})
+    with pytest.raises(ValueError, match="t_end and t_start must be finite"):
+        HybridProblem.build(ball, initial={}, t_end=math.inf)
     with pytest.raises(ValueError, match="scenario: unknown scenario 'fast'"):
-        resolve_problem(ball, initial={}, t_end=1.0, scenario="fast")
-    pb = resolve_problem(ball, initial={"h": 3.0}, t_end=1.0, scenario="benchmark")
+        HybridProblem.build(ball, initial={}, t_end=1.0, scenario="fast")
+    pb = HybridProblem.build(ball, initial={"h": 3.0}, t_end=1.0, scenario="benchmark")
     assert pb.dims == 0 and pb.x0.tolist() == [3.0, 0.0]
     assert pb.p0[ball.parameter_names.index("e")] == 0.95
 
@@ -171,7 +172,7 @@ def test_problem_arguments_are_checked_by_name(ball):
 # ----------------------------------------------------------------------------- falsification
 def test_falsification_finds_the_exact_first_violation_instant_from_a_corner(ball):
     # from h0 = 10 (a corner of [5, 10]) the speed reaches 13 at t = 13/g, before the impact
-    pb = resolve_problem(ball, initial={"h": (5.0, 10.0)}, t_end=2.0)
+    pb = HybridProblem.build(ball, initial={"h": (5.0, 10.0)}, t_end=2.0)
     found = falsify(pb, [parse_spec("v >= -13", ball)])
     cx = found.counterexample
     assert cx is not None and cx.spec == "v >= -13" and cx.mode == "fall"
@@ -188,8 +189,8 @@ def test_a_violation_between_integrator_steps_is_found_in_dense_time():
     osc = hybridlab.compile_model(hybridlab.loads_model(OSCILLATOR))
     # tight tolerances: near the dip the crossing time is 2000 times as sensitive as x
     tight = hybridlab.SimulationOptions(rtol=1e-12, atol=1e-14)
-    pb = resolve_problem(osc, initial={}, t_end=4.0, simulation=tight)
-    result = pb.run(pb.x0, pb.p0)
+    pb = HybridProblem.build(osc, initial={}, t_end=4.0, options=tight)
+    result = hybridlab.simulate(pb)
     assert np.abs(result.t - math.pi).min() > 0.01  # no stored point in the dip
     found = falsify(pb, [parse_spec("x >= -0.9999999", osc)])
     cx = found.counterexample
@@ -200,7 +201,7 @@ def test_a_violation_between_integrator_steps_is_found_in_dense_time():
 
 
 def test_counterexample_replays_bit_for_bit(ball):
-    pb = resolve_problem(ball, initial={"h": (5.0, 10.0)}, t_end=3.0, params={"e": (0.5, 0.9)})
+    pb = HybridProblem.build(ball, initial={"h": (5.0, 10.0)}, t_end=3.0, params={"e": (0.5, 0.9)})
     # after the first bounce v = e*sqrt(2 g h0): above 11 needs e*sqrt(2 g h0) > 11
     cx = falsify(pb, [parse_spec("v <= 11", ball)]).counterexample
     assert cx is not None
@@ -215,7 +216,7 @@ def test_counterexample_replays_bit_for_bit(ball):
 
 def test_uncertain_constant_inputs_are_sampled_and_reported():
     drift = hybridlab.compile_model(hybridlab.loads_model(DRIFT))
-    pb = resolve_problem(drift, initial={"x": (0.0, 0.5)}, t_end=2.0, inputs={"u": (-1.0, 1.0)})
+    pb = HybridProblem.build(drift, initial={"x": (0.0, 0.5)}, t_end=2.0, inputs={"u": (-1.0, 1.0)})
     cx = falsify(pb, [parse_spec("x <= 1.75", drift)]).counterexample
     assert cx is not None and cx.inputs == {"u": 1.0} and cx.parameters == {"u": 1.0}
     assert cx.t == pytest.approx(1.75 - cx.initial["x"], abs=1e-12)
@@ -224,7 +225,7 @@ def test_uncertain_constant_inputs_are_sampled_and_reported():
 def test_local_search_finds_a_small_unsafe_region_that_samples_miss():
     drift = hybridlab.compile_model(hybridlab.loads_model(DRIFT))
     spec = parse_spec("(x - 0.31)**2 + (y - 0.62)**2 >= 0.03**2", drift)
-    pb = resolve_problem(drift, initial={"x": (0.0, 1.0), "y": (0.0, 1.0)}, t_end=0.5)
+    pb = HybridProblem.build(drift, initial={"x": (0.0, 1.0), "y": (0.0, 1.0)}, t_end=0.5)
     options = FalsifyOptions(samples=4, local_evals=0)
     assert falsify(pb, [spec], options).counterexample is None
     found = falsify(pb, [spec], FalsifyOptions(samples=4, local_evals=60))
@@ -234,7 +235,7 @@ def test_local_search_finds_a_small_unsafe_region_that_samples_miss():
 
 
 def test_no_violation_reports_the_lowest_simulated_margin(ball):
-    pb = resolve_problem(ball, initial={"h": (5.0, 10.0)}, t_end=2.0)
+    pb = HybridProblem.build(ball, initial={"h": (5.0, 10.0)}, t_end=2.0)
     found = falsify(pb, [parse_spec("h <= 10.5", ball)], FalsifyOptions(local_evals=5))
     assert found.counterexample is None
     assert found.margins["h <= 10.5"] == pytest.approx(0.5, abs=1e-12)

@@ -17,7 +17,7 @@ from hybridlab.ensemble.executors import place
 from hybridlab.ensemble.observables import parse_counts, parse_observables
 from hybridlab.ensemble.progress import ProgressBar, progress_wanted
 from hybridlab.ensemble.result import SweepResult
-from hybridlab.ensemble.spec import RUN_KEYS, expand, normalise_run
+from hybridlab.ensemble.spec import RUN_KEYS, expand, normalise_run, sample_points
 from hybridlab.ensemble.worker import (
     ERROR,
     INTERRUPTED,
@@ -32,6 +32,7 @@ from hybridlab.model.schema import Model
 from hybridlab.simulation.api import simulate
 from hybridlab.simulation.observe import Observer
 from hybridlab.simulation.options import SimulationOptions
+from hybridlab.simulation.problem import HybridProblem
 from hybridlab.symbolic.compile import CompiledModel
 
 __all__ = ["simulate_many", "sweep"]
@@ -214,7 +215,7 @@ def _shutdown(placement: Any) -> None:
         placement.executor.shutdown(wait=True, cancel_futures=True)
 
 
-def sweep(model: Model | CompiledModel | str | Path, *,
+def sweep(model: Model | CompiledModel | str | Path | HybridProblem, *,
           grid: Mapping[str, Sequence[float]] | None = None, samples: Any = None,
           params: Mapping[str, float] | None = None, initial: Mapping[str, float] | None = None,
           scenario: str | None = None, t_end: float | None = None, observe: Any = None,
@@ -225,7 +226,9 @@ def sweep(model: Model | CompiledModel | str | Path, *,
 
     Parameters
     ----------
-    model : Model, CompiledModel, str or pathlib.Path
+    model : Model, CompiledModel, str, pathlib.Path or HybridProblem
+        A problem (with point values) supplies the defaults of ``params``,
+        ``initial``, ``scenario``, ``t_end``, the mode and the integrator settings.
     grid : mapping of str to sequence of float, optional
         A full factorial: ``{"e": [0.5, 0.8], "h": [1, 2, 3]}`` makes 6 runs. A
         name that is a state sets the initial state, a parameter the parameter.
@@ -291,6 +294,10 @@ def sweep(model: Model | CompiledModel | str | Path, *,
     >>> table["top"].tolist()
     [5.0, 10.0]
     """
+    if isinstance(model, HybridProblem):
+        compiled, params, initial, scenario, t_end, simulate_options = _problem_defaults(
+            model, grid, samples, params, initial, scenario, t_end, simulate_options)
+        model = compiled
     resolved, _ = _model_of(model)
     runs, swept = expand(resolved, grid=grid, samples=samples, params=params, initial=initial,
                          scenario=scenario, t_end=t_end)
@@ -299,6 +306,25 @@ def sweep(model: Model | CompiledModel | str | Path, *,
     return _execute(resolved if not isinstance(model, CompiledModel) else model, runs, swept,
                     input_rows, observe=observe, events=events, executor=executor,
                     chunksize=chunksize, progress=progress, keep=keep, options=simulate_options)
+
+
+def _problem_defaults(problem: HybridProblem, grid: Any, samples: Any,
+                      params: Mapping[str, float] | None, initial: Mapping[str, float] | None,
+                      scenario: str | None, t_end: float | None, options: Mapping[str, Any]
+                      ) -> tuple[CompiledModel, dict[str, Any], dict[str, Any], str | None,
+                                 float, dict[str, Any]]:
+    """The problem's values as the defaults of a sweep's arguments (swept names excluded)."""
+    base = problem.arguments("sweep")
+    swept = set(grid or ()) | ({n for point in sample_points(samples) for n in point}
+                               if samples is not None else set())
+
+    def fixed(given: Mapping[str, Any] | None, own: Mapping[str, Any]) -> dict[str, Any]:
+        return {**{k: v for k, v in own.items() if k not in swept}, **(given or {})}
+
+    settings = {k: base[k] for k in ("mode", "t_start", "options")}
+    return (problem.compiled, fixed(params, base["params"]), fixed(initial, base["initial"]),
+            scenario or base["scenario"], t_end if t_end is not None else base["t_end"],
+            {**settings, **options})
 
 
 def simulate_many(model: Model | CompiledModel | str | Path,

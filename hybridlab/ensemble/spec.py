@@ -12,7 +12,7 @@ import numpy as np
 from hybridlab.ensemble.errors import SweepError
 from hybridlab.model.schema import Model
 
-__all__ = ["RUN_KEYS", "expand", "normalise_run", "resolve_names"]
+__all__ = ["RUN_KEYS", "expand", "normalise_run", "resolve_names", "sample_points"]
 
 #: Keys a run of :func:`hybridlab.simulate_many` may set (``simulate`` keyword arguments).
 RUN_KEYS = ("params", "initial", "t_end", "scenario", "mode")
@@ -86,7 +86,14 @@ def _grid_points(grid: Mapping[str, Any]) -> list[dict[str, float]]:
     return [dict(zip(names, combo, strict=True)) for combo in itertools.product(*axes)]
 
 
-def _sample_points(samples: Any) -> list[dict[str, float]]:
+def sample_points(samples: Any) -> list[dict[str, float]]:
+    """The points of ``samples`` (mappings, a structured array or a ``(names, array)`` pair).
+
+    Examples
+    --------
+    >>> sample_points((["e", "h"], [[0.5, 1.0], [0.7, 2.0]]))
+    [{'e': 0.5, 'h': 1.0}, {'e': 0.7, 'h': 2.0}]
+    """
     if isinstance(samples, np.ndarray) and samples.dtype.names:
         names = list(samples.dtype.names)
         return [{n: _number(row[n], f"samples {n!r}") for n in names} for row in samples]
@@ -134,10 +141,10 @@ def expand(model: Model, *, grid: Mapping[str, Any] | None, samples: Any,
         resolve_names(model, dict.fromkeys(grid, 0.0), "grid")  # names first: a clear message
     points = _grid_points(grid) if grid else [{}]
     if samples is not None:
-        sample_points = _sample_points(samples)
-        check_run_count(len(sample_points) * len(points), "samples times grid")
-        points = [{**s, **g} for s in sample_points for g in points]
-        clash = set(grid or ()) & {n for s in sample_points for n in s}
+        sampled = sample_points(samples)
+        check_run_count(len(sampled) * len(points), "samples times grid")
+        points = [{**s, **g} for s in sampled for g in points]
+        clash = set(grid or ()) & {n for s in sampled for n in s}
         if clash:
             raise SweepError(f"grid and samples both set {sorted(clash)[0]!r}")
     swept = list(dict.fromkeys(n for p in points for n in p))

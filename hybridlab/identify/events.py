@@ -48,7 +48,7 @@ from hybridlab.identify.data import SensorEvents
 from hybridlab.identify.errors import DataError
 from hybridlab.model.schema import Model
 from hybridlab.simulation.api import simulate
-from hybridlab.simulation.resolve import as_compiled
+from hybridlab.simulation.problem import HybridProblem, as_compiled
 from hybridlab.simulation.result import SimulationResult
 from hybridlab.symbolic.compile import CompiledModel
 
@@ -246,7 +246,7 @@ def _check_sensors(sensors: SensorMap, compiled: CompiledModel) -> dict[str, tup
 
 
 def fit_events(
-    model: Model | CompiledModel | str | Path,
+    model: Model | CompiledModel | str | Path | HybridProblem,
     events: SensorEvents,
     *,
     fit: Sequence[str],
@@ -270,8 +270,10 @@ def fit_events(
 
     Parameters
     ----------
-    model : Model, CompiledModel, str or pathlib.Path
-        The model; its transitions named in ``sensors`` produce the edges.
+    model : Model, CompiledModel, str, pathlib.Path or HybridProblem
+        The model; its transitions named in ``sensors`` produce the edges. A
+        problem (with point values) supplies ``scenario``, ``params`` and the
+        integrator settings.
     events : SensorEvents
         The measured edges.
     fit : sequence of str
@@ -321,6 +323,11 @@ def fit_events(
     ValueError
         Unknown parameter, transition or method, or a bad setting.
     """
+    if isinstance(model, HybridProblem):  # its scenario, parameters and settings
+        base = model.arguments("fit_events")
+        scenario = scenario or base["scenario"]
+        params = {**base["params"], **(params or {})}
+        simulation_options = {"options": base["options"], **(simulation_options or {})}
     compiled = as_compiled(model)
     if not isinstance(events, SensorEvents):
         raise TypeError(f"events must be SensorEvents (got {type(events).__name__})")

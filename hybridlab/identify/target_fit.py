@@ -33,7 +33,7 @@ from hybridlab.identify.targets import MAX_SAMPLES, Target, _Observers, target_s
 from hybridlab.model.schema import Model
 from hybridlab.simulation.api import simulate
 from hybridlab.simulation.observe import Observer
-from hybridlab.simulation.resolve import as_compiled
+from hybridlab.simulation.problem import HybridProblem, as_compiled
 from hybridlab.symbolic.compile import CompiledModel
 
 __all__ = ["TargetFit", "fit_targets"]
@@ -202,7 +202,7 @@ def _check_targets(targets: Sequence[Target], compiled: CompiledModel) -> tuple[
 
 
 def fit_targets(
-    model: Model | CompiledModel | str | Path,
+    model: Model | CompiledModel | str | Path | HybridProblem,
     targets: Sequence[Target],
     *,
     fit: Sequence[str] | str,
@@ -219,7 +219,9 @@ def fit_targets(
 
     Parameters
     ----------
-    model : Model, CompiledModel, str or pathlib.Path
+    model : Model, CompiledModel, str, pathlib.Path or HybridProblem
+        A problem (with point values) supplies ``params`` and the integrator
+        settings; each target keeps its own scenario, initial values and horizon.
     targets : sequence of Target
         The quantities to match; targets of the same experiment share a simulation.
     fit : sequence of str, or str "a,b"
@@ -266,6 +268,10 @@ def fit_targets(
 
     The standard error is ``tolerance / (d apex / d e) = 0.01 / (2 e h0)``.
     """
+    if isinstance(model, HybridProblem):  # its parameters and integrator settings
+        base = model.arguments("fit_targets")
+        params = {**base["params"], **(params or {})}
+        simulation_options = {"options": base["options"], **(simulation_options or {})}
     compiled = as_compiled(model)
     fit = _check_fit(fit, compiled)
     targets = _check_targets(targets, compiled)

@@ -26,7 +26,7 @@ from hybridlab.simulation.executors import (
     model_text,
     place,
 )
-from hybridlab.simulation.resolve import as_compiled, scenario_of
+from hybridlab.simulation.problem import HybridProblem, ProblemError
 from hybridlab.symbolic.compile import CompiledModel
 
 __all__ = ["ReachError", "default_step", "reach"]
@@ -36,32 +36,8 @@ class ReachError(HybridlabError, ValueError):
     """A reachability problem is ill-posed (bad initial set, bounds or names)."""
 
 
-def _interval(value: Any, what: str) -> tuple[float, float]:
-    try:
-        if isinstance(value, tuple | list):
-            if len(value) != 2:
-                raise ReachError(f"{what} must be a number or a (lo, hi) pair (got {value!r})")
-            lo, hi = float(value[0]), float(value[1])
-        else:
-            lo = hi = float(value)
-    except (TypeError, ValueError) as exc:
-        if isinstance(exc, ReachError):
-            raise
-        raise ReachError(f"{what} must be a number or a (lo, hi) pair (got {value!r})") from None
-    if not (np.isfinite(lo) and np.isfinite(hi)):
-        raise ReachError(f"{what} must be finite (got {value!r})")
-    if lo > hi:
-        raise ReachError(f"{what} must have lo <= hi (got {value!r})")
-    return lo, hi
-
-
-def _known(name: str, names: tuple[str, ...], kind: str) -> None:
-    if name not in names:
-        raise ReachError(f"unknown {kind} {name!r}; expected one of: {', '.join(names)}")
-
-
 def reach(
-    model: Model | CompiledModel | str | Path,
+    model: Model | CompiledModel | str | Path | HybridProblem,
     *,
     initial: Mapping[str, float | tuple[float, float]] | Box | Zonotope | Polytope | None = None,
     t_end: float | None = None,
@@ -78,8 +54,9 @@ def reach(
 
     Parameters
     ----------
-    model : Model, CompiledModel, str or pathlib.Path
-        The hybrid automaton (a path is loaded with :func:`hybridlab.load_model`).
+    model : Model, CompiledModel, str, pathlib.Path or HybridProblem
+        The hybrid automaton (a path is loaded with :func:`hybridlab.load_model`),
+        or a problem whose values the other arguments override.
     initial : mapping or set, optional
         A box given per state (a number or a ``(lo, hi)`` pair; states not named
         start at their scenario/model initial value), or a :class:`Box`,
@@ -135,41 +112,15 @@ def reach(
     True
     """
     check_executor(executor, ReachError)
-    compiled = as_compiled(model)
-    spec = compiled.model
-    sc = scenario_of(spec, scenario, error=ReachError)
-    if t_end is None:
-        if sc is None:
-            raise ReachError("t_end is required: give t_end or a scenario")
-        t_end = sc.t_end
-    t0 = float(sc.t_start) if sc else 0.0
-    t_end = float(t_end)
-    if not (np.isfinite(t_end) and t_end > t0):
-        raise ReachError(f"t_end must be finite and greater than t_start={t0} (got {t_end!r})")
-    mode = mode or (sc.mode if sc and sc.mode else spec.initial.mode)
-    if mode not in spec.modes:
-        raise ReachError(f"unknown mode {mode!r}; the model has: {', '.join(spec.modes)}")
-
+    try:
+        problem = HybridProblem.build(model, t_end, scenario=scenario, params=params,
+                                      initial=initial, mode=mode, inputs=inputs)
+    except ProblemError as exc:
+        raise ReachError(str(exc)) from None
+    compiled, p, mode = problem.compiled, problem.p0, problem.mode
+    t0, t_end = problem.t_start, problem.t_end
+    uncertain, bounded = dict(problem.param_box), dict(problem.input_box)
     pnames = compiled.parameter_names
-    point: dict[str, float] = dict(sc.parameters) if sc else {}
-    uncertain: dict[str, tuple[float, float]] = {}
-    for name, value in (params or {}).items():
-        _known(name, pnames, "parameter")
-        lo, hi = _interval(value, f"params[{name!r}]")
-        if lo == hi:
-            point[name] = lo
-        else:
-            uncertain[name] = (lo, hi)
-            point.pop(name, None)
-    bounded: dict[str, tuple[float, float]] = {}
-    for name, value in (inputs or {}).items():
-        _known(name, pnames, "parameter")
-        if name in uncertain or name in (params or {}):
-            raise ReachError(f"parameter {name!r} is given both in params and in inputs")
-        if not isinstance(value, tuple | list):
-            raise ReachError(f"inputs[{name!r}] must be a (lo, hi) pair (got {value!r})")
-        bounded[name] = _interval(value, f"inputs[{name!r}]")
-    p = compiled.parameter_vector(point)
 
     symbolic = compiled.symbolic
     psym = dict(zip(pnames, symbolic.parameters, strict=True))
@@ -194,26 +145,15 @@ def reach(
                                  f"transition {tr.name!r}; scheduled instants must be known")
     system = build_system(compiled, p, uncertain, bounded)
 
-    names = compiled.state_names
-    n = len(names)
-    if initial is None:
-        initial = {}
-    if isinstance(initial, Box | Zonotope | Polytope):
-        X0 = as_zonotope(initial)
-        if X0.dim != n:
-            raise ReachError(f"initial set has dimension {X0.dim}; the model has {n} states "
-                             f"({', '.join(names)})")
-    elif isinstance(initial, Mapping):
-        x0 = compiled.state_vector(dict(sc.initial) if sc else {})
-        lo, hi = x0.copy(), x0.copy()
-        for name, value in initial.items():
-            _known(name, names, "state")
-            i = names.index(name)
-            lo[i], hi[i] = _interval(value, f"initial[{name!r}]")
-        X0 = Box(lo, hi).to_zonotope()
+    n = len(compiled.state_names)
+    if problem.initial_set is not None:
+        X0 = as_zonotope(problem.initial_set)
     else:
-        raise ReachError(f"initial must be a mapping or a Box/Zonotope/Polytope (got "
-                         f"{type(initial).__name__})")
+        lo, hi = problem.x0.copy(), problem.x0.copy()
+        for name, (a, b) in problem.state_box.items():
+            i = compiled.state_names.index(name)
+            lo[i], hi[i] = a, b
+        X0 = Box(lo, hi).to_zonotope()
 
     # extended initial set: states x uncertain parameters x time
     extra_lo = [u[0] for u in uncertain.values()] + ([t0] if system.timed else [])

@@ -26,130 +26,31 @@ import math
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from hybridlab.model.schema import Model
 from hybridlab.reachability.options import FalsifyOptions
 from hybridlab.reachability.spec import Spec
 from hybridlab.simulation.options import SimulationOptions
-from hybridlab.simulation.resolve import as_compiled, scenario_of
+from hybridlab.simulation.problem import HybridProblem
 from hybridlab.simulation.result import SimulationResult
 from hybridlab.symbolic.compile import CompiledModel
 from hybridlab.symbolic.functions import VectorFunction
 
-__all__ = ["Problem", "FalsifyOptions", "Counterexample", "SpecMargin", "Falsification",
-           "resolve_problem", "falsify", "FalsificationSearch", "trajectory_margin"]
+__all__ = ["FalsifyOptions", "Counterexample", "SpecMargin", "Falsification", "falsify",
+           "FalsificationSearch", "run_point", "trajectory_margin"]
 
 _EMPTY = np.empty(0)
 _INTERIOR = (0.25, 0.5, 0.75)  # extra dense points per integrator step
 
 
-def _interval(value: Any, what: str) -> tuple[float, float]:
-    if isinstance(value, int | float | np.floating | np.integer):
-        lo = hi = float(value)
-    else:
-        try:
-            lo, hi = (float(v) for v in value)
-        except (TypeError, ValueError):
-            raise ValueError(f"{what} must be a number or a (lo, hi) pair (got {value!r})"
-                             ) from None
-    if not (math.isfinite(lo) and math.isfinite(hi)):
-        raise ValueError(f"{what} must be finite (got {value!r})")
-    if lo > hi:
-        raise ValueError(f"{what} needs lo <= hi (got {value!r})")
-    return lo, hi
-
-
-@dataclass(frozen=True)
-class Problem:
-    """A verification problem with every default resolved (scenario, model values).
-
-    Attributes
-    ----------
-    compiled : CompiledModel
-    mode : str
-        Initial mode.
-    t_start, t_end : float
-    x0 : numpy.ndarray
-        Nominal initial state (point states and the centre of boxes).
-    p0 : numpy.ndarray
-        Nominal parameter vector (scenario values, fixed overrides, centres).
-    state_box : mapping of str to (lo, hi)
-        Uncertain initial states given as intervals.
-    initial_set : object or None
-        A set object over all states (``Box``, ``Zonotope``, ``Polytope``) when
-        the initial set was given that way; then ``state_box`` is empty.
-    param_box, input_box : mapping of str to (lo, hi)
-        Uncertain constant parameters and time-varying inputs.
-    options : SimulationOptions
-        Settings every simulation uses (the scenario's integrator settings included).
-    scenario : str or None
-    """
-
-    compiled: CompiledModel = field(repr=False)
-    mode: str
-    t_start: float
-    t_end: float
-    x0: np.ndarray
-    p0: np.ndarray
-    state_box: Mapping[str, tuple[float, float]]
-    param_box: Mapping[str, tuple[float, float]]
-    input_box: Mapping[str, tuple[float, float]]
-    options: SimulationOptions
-    scenario: str | None = None
-    initial_set: Any = None
-
-    @property
-    def dims(self) -> int:
-        """Number of uncertain coordinates searched (set generators, box sides, params)."""
-        return (self._set_dims() + len(self.state_box) + len(self.param_box)
-                + len(self.input_box))
-
-    def _set_dims(self) -> int:
-        s = self.initial_set
-        if s is None:
-            return 0
-        if hasattr(s, "generators"):
-            return int(np.asarray(s.generators).shape[1])
-        return len(self.compiled.state_names)
-
-    def point(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-        """Map ``u`` in the unit cube to ``(x0, p)``; ``None`` outside a polytope set."""
-        u = np.asarray(u, dtype=float)
-        x = self.x0.copy()
-        p = self.p0.copy()
-        k = 0
-        s = self.initial_set
-        if s is not None:
-            m = self._set_dims()
-            w = u[:m]
-            if hasattr(s, "generators"):
-                x = np.asarray(s.center, dtype=float) + np.asarray(s.generators) @ (2 * w - 1)
-            else:
-                lo, hi = np.asarray(s.bounds(), dtype=float).T
-                x = lo + w * (hi - lo)
-                if hasattr(s, "A") and not bool(np.all(s.contains_points(x[None, :]))):
-                    return None
-            k = m
-        names = self.compiled.state_names
-        for name, (lo, hi) in self.state_box.items():
-            x[names.index(name)] = lo + u[k] * (hi - lo)
-            k += 1
-        pnames = self.compiled.parameter_names
-        for box in (self.param_box, self.input_box):
-            for name, (lo, hi) in box.items():
-                p[pnames.index(name)] = lo + u[k] * (hi - lo)
-                k += 1
-        return x, p
-
-    def run(self, x0: np.ndarray, p: np.ndarray) -> SimulationResult:
-        """Simulate from ``x0`` with parameter vector ``p`` (deterministic)."""
-        return _simulate(self.compiled, self.mode, self.t_start, self.t_end, self.options,
-                         dict(zip(self.compiled.state_names, map(float, x0), strict=True)),
-                         dict(zip(self.compiled.parameter_names, map(float, p), strict=True)))
+def run_point(problem: HybridProblem, x0: np.ndarray, p: np.ndarray) -> SimulationResult:
+    """Simulate ``problem`` from ``x0`` with parameter vector ``p`` (deterministic)."""
+    return _simulate(problem.compiled, problem.mode, problem.t_start, problem.t_end,
+                     problem.options,
+                     dict(zip(problem.compiled.state_names, map(float, x0), strict=True)),
+                     dict(zip(problem.compiled.parameter_names, map(float, p), strict=True)))
 
 
 def _simulate(compiled: CompiledModel, mode: str, t_start: float, t_end: float,
@@ -161,96 +62,6 @@ def _simulate(compiled: CompiledModel, mode: str, t_start: float, t_end: float,
     return simulate(compiled, t_end, params=params, initial=initial, mode=mode, t_start=t_start,
                     method=options.method, rtol=options.rtol, atol=options.atol,
                     max_step=options.max_step, options=options)
-
-
-def resolve_problem(
-    model: Model | CompiledModel | str | Path,
-    *,
-    initial: Mapping[str, float | tuple[float, float]] | Any,
-    t_end: float,
-    mode: str | None = None,
-    scenario: str | None = None,
-    params: Mapping[str, float | tuple[float, float]] | None = None,
-    inputs: Mapping[str, tuple[float, float]] | None = None,
-    simulation: SimulationOptions | None = None,
-) -> Problem:
-    """Check the arguments of a verification problem and resolve its defaults.
-
-    The scenario supplies parameter values, initial values, the initial mode,
-    ``t_start`` and integrator settings exactly as :func:`hybridlab.simulate`
-    takes them; ``params`` and ``initial`` override them (a pair is an interval).
-
-    Examples
-    --------
-    >>> pb = resolve_problem("models/bouncing_ball.toml", initial={"h": (5.0, 10.0)},
-    ...                      t_end=2.0, params={"e": (0.7, 0.9)})
-    >>> pb.state_box, pb.param_box, pb.dims
-    ({'h': (5.0, 10.0)}, {'e': (0.7, 0.9)}, 2)
-    """
-    compiled = as_compiled(model)
-    spec = compiled.model
-    sc = scenario_of(spec, scenario, prefix="scenario: ")
-    t_start = float(sc.t_start) if sc is not None else 0.0
-    t_end = float(t_end)
-    if not (math.isfinite(t_end) and t_end > t_start):
-        raise ValueError(f"t_end must be finite and greater than t_start = {t_start:g} "
-                         f"(got {t_end!r})")
-    mode = mode or (sc.mode if sc is not None and sc.mode else spec.initial.mode)
-    if mode not in spec.modes:
-        raise ValueError(f"mode: unknown mode {mode!r}; the model has: {', '.join(spec.modes)}")
-    pnames, snames = compiled.parameter_names, compiled.state_names
-    fixed_p: dict[str, float] = dict(sc.parameters) if sc is not None else {}
-    param_box: dict[str, tuple[float, float]] = {}
-    for name, value in (params or {}).items():
-        if name not in pnames:
-            raise ValueError(f"params: unknown parameter {name!r}; expected one of: "
-                             f"{', '.join(pnames)}")
-        lo, hi = _interval(value, f"params[{name!r}]")
-        fixed_p[name] = 0.5 * (lo + hi)
-        if hi > lo:
-            param_box[name] = (lo, hi)
-    input_box: dict[str, tuple[float, float]] = {}
-    for name, value in (inputs or {}).items():
-        if name not in pnames:
-            raise ValueError(f"inputs: unknown parameter {name!r} (an input is a parameter "
-                             f"that varies in time); expected one of: {', '.join(pnames)}")
-        if params and name in params:
-            raise ValueError(f"inputs: {name!r} is also given in params; give it once")
-        lo, hi = _interval(value, f"inputs[{name!r}]")
-        fixed_p[name] = 0.5 * (lo + hi)
-        input_box[name] = (lo, hi)
-    fixed_x: dict[str, float] = dict(sc.initial) if sc is not None else {}
-    state_box: dict[str, tuple[float, float]] = {}
-    initial_set = None
-    if isinstance(initial, Mapping):
-        for name, value in initial.items():
-            if name not in snames:
-                raise ValueError(f"initial: unknown state {name!r}; expected one of: "
-                                 f"{', '.join(snames)}")
-            lo, hi = _interval(value, f"initial[{name!r}]")
-            fixed_x[name] = 0.5 * (lo + hi)
-            if hi > lo:
-                state_box[name] = (lo, hi)
-    elif hasattr(initial, "bounds") and hasattr(initial, "contains_points"):
-        bounds = np.asarray(initial.bounds(), dtype=float)
-        if bounds.shape != (len(snames), 2):
-            raise ValueError(f"initial: a set must be over all {len(snames)} states "
-                             f"({', '.join(snames)}); got bounds of shape {bounds.shape}")
-        fixed_x.update(zip(snames, bounds.mean(axis=1), strict=True))
-        initial_set = initial
-    else:
-        raise TypeError(f"initial must be a mapping of state names to values or (lo, hi), or a "
-                        f"Box/Zonotope/Polytope (got {type(initial).__name__})")
-    x0 = compiled.state_vector(fixed_x)
-    p0 = compiled.parameter_vector(fixed_p)
-    base = simulation or SimulationOptions()
-    if sc is not None and simulation is None:
-        taken = {k: getattr(sc, k) for k in ("method", "rtol", "atol", "max_step")
-                 if getattr(sc, k) is not None}
-        base = replace(base, **taken)
-    return Problem(compiled=compiled, mode=mode, t_start=t_start, t_end=t_end, x0=x0, p0=p0,
-                   state_box=state_box, param_box=param_box, input_box=input_box,
-                   options=base, scenario=scenario, initial_set=initial_set)
 
 
 # ------------------------------------------------------------------------------------------
@@ -478,15 +289,15 @@ class FalsificationSearch:
 
     Parameters
     ----------
-    problem : Problem
-        From :func:`resolve_problem`.
+    problem : HybridProblem
     specs : sequence of Spec
     options : FalsifyOptions, optional
 
     Examples
     --------
     >>> from hybridlab.reachability.spec import parse_spec
-    >>> pb = resolve_problem("models/bouncing_ball.toml", initial={"h": (5.0, 10.0)}, t_end=2.0)
+    >>> pb = HybridProblem.build("models/bouncing_ball.toml", initial={"h": (5.0, 10.0)},
+    ...                          t_end=2.0)
     >>> search = FalsificationSearch(pb, [parse_spec("h <= 10.5", pb.compiled)])
     >>> found = search.sample()
     >>> found.counterexample is None, found.runs
@@ -495,7 +306,7 @@ class FalsificationSearch:
     True
     """
 
-    def __init__(self, problem: Problem, specs: Sequence[Spec],
+    def __init__(self, problem: HybridProblem, specs: Sequence[Spec],
                  options: FalsifyOptions | None = None) -> None:
         self.problem = problem
         self.specs = tuple(specs)
@@ -553,7 +364,7 @@ class FalsificationSearch:
         if point is None:
             return None
         x0, p = point
-        result = self.problem.run(x0, p)
+        result = run_point(self.problem, x0, p)
         self._runs += 1
         self._most_jumps = max(self._most_jumps, len(result.jumps))
         if not result.status.ok:
@@ -584,14 +395,13 @@ class FalsificationSearch:
             options=problem.options, compiled=problem.compiled)
 
 
-def falsify(problem: Problem, specs: Sequence[Spec],
+def falsify(problem: HybridProblem, specs: Sequence[Spec],
             options: FalsifyOptions | None = None) -> Falsification:
     """Search the uncertain initial set, parameters and inputs for a violation.
 
     Parameters
     ----------
-    problem : Problem
-        From :func:`resolve_problem`.
+    problem : HybridProblem
     specs : sequence of Spec
     options : FalsifyOptions, optional
 
@@ -604,7 +414,8 @@ def falsify(problem: Problem, specs: Sequence[Spec],
     Examples
     --------
     >>> from hybridlab.reachability.spec import parse_spec
-    >>> pb = resolve_problem("models/bouncing_ball.toml", initial={"h": (5.0, 10.0)}, t_end=2.0)
+    >>> pb = HybridProblem.build("models/bouncing_ball.toml", initial={"h": (5.0, 10.0)},
+    ...                          t_end=2.0)
     >>> found = falsify(pb, [parse_spec("h <= 9", pb.compiled)])
     >>> cx = found.counterexample
     >>> cx.t, cx.initial["h"], cx.margin

@@ -31,11 +31,11 @@ from hybridlab.reachability.falsify import (
     Falsification,
     FalsificationSearch,
     FalsifyOptions,
-    resolve_problem,
 )
 from hybridlab.reachability.spec import Avoid, Spec, as_specs
 from hybridlab.simulation.executors import check_executor
 from hybridlab.simulation.options import SimulationOptions
+from hybridlab.simulation.problem import HybridProblem
 from hybridlab.symbolic.compile import CompiledModel
 
 __all__ = ["VerdictStatus", "SpecBound", "Verdict", "check", "bound_specs"]
@@ -185,11 +185,11 @@ def bound_specs(specs: Iterable[Spec], reach_result: Any) -> tuple[SpecBound, ..
 
 
 def check(
-    model: Model | CompiledModel | str | Path,
+    model: Model | CompiledModel | str | Path | HybridProblem,
     *,
-    initial: Mapping[str, float | tuple[float, float]] | Any,
-    t_end: float,
-    safe: str | Avoid | Spec | Iterable[str | Avoid | Spec],
+    initial: Mapping[str, float | tuple[float, float]] | Any = None,
+    t_end: float | None = None,
+    safe: str | Avoid | Spec | Iterable[str | Avoid | Spec] = (),
     mode: str | None = None,
     scenario: str | None = None,
     params: Mapping[str, float | tuple[float, float]] | None = None,
@@ -205,12 +205,15 @@ def check(
 
     Parameters
     ----------
-    model : Model, CompiledModel or path
+    model : Model, CompiledModel, path or HybridProblem
+        A problem carries the initial set, horizon, mode, scenario, parameters
+        and inputs; the arguments below override it.
     initial : mapping or set
         States given as a number (a point) or a ``(lo, hi)`` interval (others
         take their scenario or model value), or a ``Box``/``Zonotope``/``Polytope``
         over all states.
     t_end : float
+        Horizon (default: the problem's or the scenario's).
     safe : spec or sequence of specs
         Texts such as ``"x >= -100"`` or ``"attempt, brake: x >= -100"``,
         :class:`~hybridlab.reachability.spec.Avoid` regions, or bound specs.
@@ -242,10 +245,12 @@ def check(
     """
     check_executor(executor)
     started = time.perf_counter()
-    problem = resolve_problem(model, initial=initial, t_end=t_end, mode=mode, scenario=scenario,
-                              params=params, inputs=inputs, simulation=simulation)
+    problem = HybridProblem.build(model, t_end, initial=initial, mode=mode, scenario=scenario,
+                                  params=params, inputs=inputs, options=simulation)
     compiled = problem.compiled
     specs = as_specs(safe, compiled)
+    if not specs:
+        raise ValueError("safe: give at least one spec or region to avoid")
     texts = tuple(s.text for s in specs)
 
     search = FalsificationSearch(problem, specs, falsify_options)
@@ -283,8 +288,7 @@ def check(
         if stage:
             tried.append(_describe(stage))
         extra = {} if until is None else {"deadline": until}
-        result = reach(compiled, initial=initial, t_end=t_end, mode=mode, scenario=scenario,
-                       params=params, inputs=inputs, options=options, executor=executor,
+        result = reach(problem, options=options, executor=executor,
                        stop_unproved=specs if until is not None else (),
                        **{**overrides, **stage, **extra})
         return _Attempt.of(specs, result, stage)
