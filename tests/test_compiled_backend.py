@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import io
 import os
 import subprocess
 import sys
 import textwrap
+import time
 from pathlib import Path
 
 import numpy as np
@@ -274,3 +276,24 @@ def test_kernel_cache_is_checked_where_numba_keeps_it(tmp_path):
     cache = Path(out.stdout.strip())
     assert cache.parent == tmp_path
     assert (cache / "kernel-sources.sha256").is_file()
+
+
+def test_a_compile_is_announced_on_a_terminal_only(monkeypatch: pytest.MonkeyPatch) -> None:
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    def fresh(tag: str) -> hybridlab.Model:  # a model no cache has seen
+        rate = f"{time.time_ns()}{ord(tag)}e-40"
+        return hybridlab.loads_model(f'name = "fresh{tag}"\nstates = {{ x = 1.0 }}\n'
+                                     f'[modes.a]\nflow = {{ x = "-x*(1 + {rate})" }}\n'
+                                     '[initial]\nmode = "a"\n')
+
+    terminal = Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    hybridlab.simulate(fresh("a"), 0.1, backend="compiled")
+    assert "hybridlab: compiling model 'fresha' (" in terminal.getvalue()
+    piped = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", piped)
+    hybridlab.simulate(fresh("b"), 0.1, backend="compiled")
+    assert piped.getvalue() == ""

@@ -670,6 +670,8 @@ def _initial_set(atoms: list[Atom], ctx: _Ctx, point: Mapping[str, float],
 
 
 def _bounds_lp(A: np.ndarray, b: np.ndarray, ctx: _Ctx) -> tuple[np.ndarray, np.ndarray]:
+    if np.all(np.count_nonzero(A, axis=1) <= 1):  # bounds on single variables: no LP
+        return _axis_bounds(A, b, ctx)
     from scipy.optimize import linprog
 
     n = A.shape[1]
@@ -686,6 +688,31 @@ def _bounds_lp(A: np.ndarray, b: np.ndarray, ctx: _Ctx) -> tuple[np.ndarray, np.
                 _fail(ctx.cfg_source, "initially", "the initial set is unbounded in this "
                       "variable (constrain it)", ctx.states[i])
             out[i] = sign * res.fun
+    return lo, hi
+
+
+def _axis_bounds(A: np.ndarray, b: np.ndarray, ctx: _Ctx) -> tuple[np.ndarray, np.ndarray]:
+    """The box of rows ``a_i x_j <= b`` that each constrain one variable (what an LP over
+    them gives, with the same errors)."""
+    n = A.shape[1]
+    lo, hi = np.full(n, -np.inf), np.full(n, np.inf)
+    for row, rhs in zip(A, b, strict=True):
+        nonzero = np.flatnonzero(row)
+        if not nonzero.size:
+            if rhs < 0:  # 0 <= rhs fails
+                _fail(ctx.cfg_source, "initially", "the initial set is empty")
+            continue
+        j = int(nonzero[0])
+        if row[j] > 0:
+            hi[j] = min(hi[j], rhs / row[j])
+        else:
+            lo[j] = max(lo[j], rhs / row[j])
+    if np.any(lo > hi):
+        _fail(ctx.cfg_source, "initially", "the initial set is empty")
+    for j in range(n):
+        if not (np.isfinite(lo[j]) and np.isfinite(hi[j])):
+            _fail(ctx.cfg_source, "initially", "the initial set is unbounded in this "
+                  "variable (constrain it)", ctx.states[j])
     return lo, hi
 
 

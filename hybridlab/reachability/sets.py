@@ -16,9 +16,9 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from hybridlab.errors import HybridlabError
 from hybridlab.reachability.rounding import U, product_error, up
@@ -30,14 +30,14 @@ class SetError(HybridlabError, ValueError):
     """A set is malformed (shapes, NaN, lo > hi) or an LP on it failed."""
 
 
-def _vector(x: Any, name: str) -> np.ndarray:
+def _vector(x: ArrayLike, name: str) -> np.ndarray:
     v = np.array(x, dtype=float).reshape(-1)
     if not np.all(np.isfinite(v)):
         raise SetError(f"{name} must be finite (got {v.tolist()})")
     return v
 
 
-def _points(X: Any, n: int) -> tuple[np.ndarray, bool]:
+def _points(X: ArrayLike, n: int) -> tuple[np.ndarray, bool]:
     P = np.asarray(X, dtype=float)
     single = P.ndim == 1
     P = np.atleast_2d(P)
@@ -50,7 +50,7 @@ def _outward(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     return np.column_stack([np.nextafter(lo, -np.inf), np.nextafter(hi, np.inf)])
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, init=False)
 class Box:
     """An axis-aligned box ``lo <= x <= hi``.
 
@@ -68,8 +68,10 @@ class Box:
     lo: np.ndarray
     hi: np.ndarray
 
-    def __post_init__(self) -> None:
-        lo, hi = _vector(self.lo, "lo"), _vector(self.hi, "hi")
+    def __init__(self, lo: ArrayLike, hi: ArrayLike) -> None:
+        # written out (not generated) so that lists and arrays are accepted while the
+        # fields are always float vectors
+        lo, hi = _vector(lo, "lo"), _vector(hi, "hi")
         if lo.shape != hi.shape:
             raise SetError(f"lo and hi must have the same length (got {lo.size} and {hi.size})")
         if np.any(lo > hi):
@@ -86,12 +88,12 @@ class Box:
         """The box itself, shape ``(n, 2)``."""
         return np.column_stack([self.lo, self.hi])
 
-    def support(self, direction: Sequence[float]) -> float:
+    def support(self, direction: ArrayLike) -> float:
         """``max d . x`` over the box."""
         d = _vector(direction, "direction")
         return float(np.sum(np.where(d >= 0, d * self.hi, d * self.lo)))
 
-    def contains_points(self, X: Any, tol: float = 0.0) -> np.ndarray:
+    def contains_points(self, X: ArrayLike, tol: float = 0.0) -> np.ndarray:
         """Whether each row of ``X`` lies in the box (within ``tol``)."""
         P, single = _points(X, self.dim)
         below, above = self.lo - P, P - self.hi
@@ -110,7 +112,7 @@ class Box:
         return Zonotope(c, G)
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, init=False)
 class Zonotope:
     """The zonotope ``{center + generators @ b : b in [-1, 1]^m}``.
 
@@ -133,9 +135,11 @@ class Zonotope:
     center: np.ndarray
     generators: np.ndarray
 
-    def __post_init__(self) -> None:
-        c = _vector(self.center, "center")
-        G = np.array(self.generators, dtype=float)
+    def __init__(self, center: ArrayLike, generators: ArrayLike) -> None:
+        # written out (not generated) so that lists and arrays are accepted while the
+        # fields are always float arrays
+        c = _vector(center, "center")
+        G = np.array(generators, dtype=float)
         if G.ndim == 1 and G.size == 0:
             G = G.reshape(c.size, 0)
         if G.ndim != 2 or G.shape[0] != c.size:
@@ -163,7 +167,7 @@ class Zonotope:
         r = self.radius()
         return _outward(self.center - r, self.center + r)
 
-    def support(self, direction: Sequence[float]) -> float:
+    def support(self, direction: ArrayLike) -> float:
         """``max d . x`` over the zonotope (exact: ``d.c + sum |d.g_i|``)."""
         d = _vector(direction, "direction")
         return float(self.supports(d[None, :])[0])
@@ -197,7 +201,8 @@ class Zonotope:
         """The interval hull as a zonotope."""
         return self.interval_hull().to_zonotope()
 
-    def linear_map(self, M: Any, offset: Any = None, radius: Any = None) -> Zonotope:
+    def linear_map(self, M: ArrayLike, offset: ArrayLike | None = None,
+                   radius: ArrayLike | None = None) -> Zonotope:
         """``{M x + offset}``, exact up to the products' rounding, which is enclosed by a box.
 
         With ``radius`` (entrywise, the shape of ``M``) the map is any matrix within
@@ -307,7 +312,7 @@ class Zonotope:
         b = A @ self.center + np.sum(np.abs(A @ G), axis=1)
         return A, b
 
-    def contains_points(self, X: Any, tol: float = 1e-9) -> np.ndarray:
+    def contains_points(self, X: ArrayLike, tol: float = 1e-9) -> np.ndarray:
         """Whether each row of ``X`` lies in the zonotope, within ``tol`` (relative to its
         size). Exact through facets when the zonotope's affine hull has dimension <= 3
         (a degenerate zonotope is tested in its own coordinates), an LP per point otherwise."""
@@ -390,7 +395,7 @@ class Zonotope:
         res = linprog(np.zeros(m), A_ub=A, b_ub=rhs, bounds=[(-1, 1)] * m, method="highs")
         return bool(res.status == 0)
 
-    def intersect_halfspace(self, a: Sequence[float], b: float) -> Zonotope | None:
+    def intersect_halfspace(self, a: ArrayLike, b: float) -> Zonotope | None:
         """A zonotope containing ``Z ∩ {a . x <= b}`` (``None`` if that is empty).
 
         Each generator factor's range ``[-1, 1]`` is narrowed to what the
@@ -445,11 +450,11 @@ class Zonotope:
                  + U * np.sum(np.abs(G) * rad, axis=1))
         return Zonotope(center, np.hstack([G * rad, np.diag(err)])).compact()
 
-    def may_intersect(self, a: Sequence[float], b: float) -> bool:
+    def may_intersect(self, a: ArrayLike, b: float) -> bool:
         """Whether some point satisfies ``a . x <= b``."""
         return -self.support(-np.asarray(a, dtype=float)) <= b
 
-    def bounds_in_slab(self, a: Sequence[float], lo: float, hi: float) -> np.ndarray | None:
+    def bounds_in_slab(self, a: ArrayLike, lo: float, hi: float) -> np.ndarray | None:
         """Tight bounds of ``Z ∩ {lo <= a . x <= hi}``, ``None`` if empty.
 
         Solved through the LP dual, which for one slab is the maximum of a concave
@@ -503,7 +508,7 @@ class Zonotope:
             return None
         return out
 
-    def bounds_within(self, A: Any, b: Any, dims: Sequence[int] | None = None
+    def bounds_within(self, A: ArrayLike, b: ArrayLike, dims: Sequence[int] | None = None
                       ) -> np.ndarray | None:
         """Tight bounds of ``Z ∩ {A x <= b}``.
 
@@ -572,7 +577,7 @@ def _as_slab(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float, float] | 
     return a, lo, hi
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, init=False)
 class Polytope:
     """The H-polytope ``{x : A x <= b}`` (bounded for :meth:`bounds`).
 
@@ -590,9 +595,11 @@ class Polytope:
     A: np.ndarray
     b: np.ndarray
 
-    def __post_init__(self) -> None:
-        A = np.atleast_2d(np.array(self.A, dtype=float))
-        b = _vector(self.b, "b")
+    def __init__(self, A: ArrayLike, b: ArrayLike) -> None:
+        # written out (not generated) so that lists and arrays are accepted while the
+        # fields are always float arrays
+        A = np.atleast_2d(np.array(A, dtype=float))
+        b = _vector(b, "b")
         if A.shape[0] != b.size:
             raise SetError(f"A must have one row per entry of b (got {A.shape} and {b.size})")
         if not np.all(np.isfinite(A)):
@@ -604,7 +611,7 @@ class Polytope:
     def dim(self) -> int:
         return self.A.shape[1]
 
-    def support(self, direction: Sequence[float]) -> float:
+    def support(self, direction: ArrayLike) -> float:
         """``max d . x`` by an LP; ``inf`` if unbounded in that direction."""
         d = _vector(direction, "direction")
         from scipy.optimize import linprog
@@ -632,7 +639,7 @@ class Polytope:
             raise SetError("the polytope is unbounded; a reachable set must be bounded")
         return out
 
-    def contains_points(self, X: Any, tol: float = 1e-9) -> np.ndarray:
+    def contains_points(self, X: ArrayLike, tol: float = 1e-9) -> np.ndarray:
         """Whether each row of ``X`` satisfies ``A x <= b`` (within ``tol``)."""
         P, single = _points(X, self.dim)
         excess = P @ self.A.T - self.b

@@ -253,6 +253,9 @@ class Prepared:
         if entry is None:
             types = tuple(map(run_kernel.typeof_pyval, args))
             if types not in run_kernel.overloads:
+                if not any(_kernel_cache_path().glob("kernel.run_kernel-*.nbi")):
+                    _tell("compiling the simulation kernel: once per machine and version, "
+                          "about 2-3 minutes")
                 run_kernel.compile(types)  # (loads the disk cache, or compiles)
             # numba's CompileResult is a namedtuple made from a list of field names, which
             # its type hints do not declare
@@ -399,6 +402,12 @@ class SlowToCompile(UnsupportedModel):
     :data:`MAX_AUTO_COMPILE_LINES`)."""
 
 
+def _tell(message: str) -> None:
+    """One line on a terminal's stderr while something slow happens (nothing elsewhere)."""
+    if sys.stderr.isatty():
+        print(f"hybridlab: {message} ...", file=sys.stderr, flush=True)
+
+
 def _compiled_before(name: str) -> bool:
     """Whether numba's cache already holds the generated module ``name``."""
     folder = cache_dir() / "__pycache__"
@@ -427,6 +436,10 @@ def prepare(compiled: CompiledModel, max_lines: int | None = None) -> Prepared:
             f"its generated code has {lines} lines (more than {max_lines}), which numba would "
             "take minutes to compile; backend='compiled' compiles it anyway")
         raise _SLOW[compiled]
+    name = _module_name(source)
+    if name not in sys.modules and not _compiled_before(name):
+        _tell(f"compiling model {compiled.model.name!r} ({lines} lines of generated code): "
+              "once per model")
     module, hit = _import(source)
     modes = list(compiled.modes.values())
     index = {name: i for i, name in enumerate(compiled.modes)}
