@@ -10,7 +10,7 @@ import argparse
 import sys
 
 import hybridlab
-from hybridlab.graph import Severity, Verdict, check_mode_graph
+from hybridlab.graph import Feasibility, Severity, check_mode_graph
 
 # A valve that opens and closes on a pressure threshold. Three deliberate mistakes:
 # - "vent" needs p >= 12 but the invariant of "open" keeps p <= 10: it can never fire,
@@ -70,12 +70,12 @@ def main() -> int:
     print(fixed)
 
     failures = [text for ok, text in [
-        (vent.guard is Verdict.IMPOSSIBLE, "'vent' should never fire"),
+        (vent.guard is Feasibility.IMPOSSIBLE, "'vent' should never fire"),
         (report.dead_modes == ("venting",), "'venting' should be dead"),
         # possible with the model's values (p_on == p_off): a warning
-        (cycle.verdict is Verdict.POSSIBLE and cycle.parameter_set == "model values",
+        (cycle.verdict is Feasibility.POSSIBLE and cycle.parameter_set == "model values",
          "open -> close should be a zero-dwell cycle"),
-        (fixed.cycles[0].verdict is Verdict.IMPOSSIBLE, "hysteresis should rule the cycle out"),
+        (fixed.cycles[0].verdict is Feasibility.IMPOSSIBLE, "hysteresis should rule the cycle out"),
         (fixed.count(Severity.WARNING) == 1, "only the dead mode should remain a warning"),
     ] if not ok]
     for text in failures:
@@ -94,7 +94,7 @@ def plot(model: hybridlab.Model, report: hybridlab.graph.GraphReport, path: str)
     import networkx as nx
 
     graph = hybridlab.mode_graph(model)
-    never = {(t.source, t.target) for t in report.transitions if t.guard is Verdict.IMPOSSIBLE}
+    never = {(t.source, t.target) for t in report.transitions if t.guard is Feasibility.IMPOSSIBLE}
     pos = nx.circular_layout(graph)
     fig, ax = plt.subplots(figsize=(5, 4))
     colors = ["lightgrey" if n in report.dead_modes else "lightblue" for n in graph.nodes]

@@ -1,8 +1,9 @@
 """hybridlab: model, simulate and verify hybrid automata.
 
-The public API is re-exported here; submodules are layered
-model -> symbolic -> simulate -> graph -> cli, and lower layers never import
-higher ones.
+Every entry point is re-exported here and loads on first use. The packages are
+layered model -> symbolic -> simulation -> (reachability, ensemble, identify,
+graph, io) -> verify -> cli; a layer imports only from the layers before it
+(and ``errors``).
 """
 
 from typing import TYPE_CHECKING
@@ -20,6 +21,7 @@ if TYPE_CHECKING:  # the public names, loaded on first use (hybridlab._lazy)
         ZenoError,
     )
     from hybridlab.graph import GraphReport, check_mode_graph, mode_graph, to_dot
+    from hybridlab.identify import fit_events, fit_friction, fit_mass, fit_targets
     from hybridlab.io import load_spaceex
     from hybridlab.model import (
         Initial,
@@ -55,6 +57,7 @@ if TYPE_CHECKING:  # the public names, loaded on first use (hybridlab._lazy)
         simulate,
     )
     from hybridlab.symbolic import CompiledModel, compile_model
+    from hybridlab.verify import Verdict, assert_safe, check_safety
 
 __getattr__, __dir__ = lazy_exports(__name__, __file__)
 
@@ -88,11 +91,18 @@ __all__ = [
     "Status",
     "SweepResult",
     "Transition",
+    "Verdict",
     "ZenoError",
     "Zonotope",
+    "assert_safe",
     "check_mode_graph",
+    "check_safety",
     "compile_model",
     "dumps_model",
+    "fit_events",
+    "fit_friction",
+    "fit_mass",
+    "fit_targets",
     "load_model",
     "load_spaceex",
     "loads_model",

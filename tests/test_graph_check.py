@@ -11,7 +11,7 @@ from strategies import MODEL_FILES
 import hybridlab
 from hybridlab import loads_model
 from hybridlab.cli import main
-from hybridlab.graph import Severity, Verdict, check_mode_graph, decide
+from hybridlab.graph import Feasibility, Severity, check_mode_graph, decide
 
 ROOT = Path(__file__).resolve().parents[1]
 x, y = sp.symbols("x y", real=True)
@@ -33,32 +33,33 @@ TWO_MODES = '[modes.a]\nflow = { x = "1" }\ninvariant = "x <= 1"\n[modes.b]\nflo
 # ----------------------------------------------------------------- feasibility decisions
 def test_lp_margin_is_the_half_gap_between_contradicting_rows() -> None:
     decision = decide([x - 2, 1 - x])  # x >= 2 and x <= 1: best compromise x = 1.5
-    assert decision.verdict is Verdict.IMPOSSIBLE and decision.method == "lp"
+    assert decision.verdict is Feasibility.IMPOSSIBLE and decision.method == "lp"
     assert decision.margin == pytest.approx(-0.5, abs=1e-9)
 
 
 def test_touching_rows_are_possible() -> None:
     decision = decide([x - 1, 1 - x, y])
-    assert decision.verdict is Verdict.POSSIBLE and decision.margin == pytest.approx(0, abs=1e-9)
+    assert decision.verdict is Feasibility.POSSIBLE
+    assert decision.margin == pytest.approx(0, abs=1e-9)
 
 
 def test_constant_rows_decide_without_states() -> None:
-    assert decide([sp.Float(-0.25)]).verdict is Verdict.IMPOSSIBLE
-    assert decide([sp.Float(0.0), x]).verdict is Verdict.POSSIBLE
+    assert decide([sp.Float(-0.25)]).verdict is Feasibility.IMPOSSIBLE
+    assert decide([sp.Float(0.0), x]).verdict is Feasibility.POSSIBLE
 
 
 def test_nonlinear_rows_are_decided_by_intervals_on_a_bounded_box() -> None:
     # x - x^2 <= 1/4 everywhere: infeasible, provable once the invariant bounds x
-    assert decide([x - x**2 - 0.3, x, 1 - x]).verdict is Verdict.IMPOSSIBLE
-    assert decide([x - x**2 - 0.2, x, 1 - x]).verdict is Verdict.POSSIBLE
+    assert decide([x - x**2 - 0.3, x, 1 - x]).verdict is Feasibility.IMPOSSIBLE
+    assert decide([x - x**2 - 0.2, x, 1 - x]).verdict is Feasibility.POSSIBLE
     # unbounded: the interval enclosure of x - x^2 is the whole line on every box
-    assert decide([x - x**2 - 0.3]).verdict is Verdict.UNDECIDED
+    assert decide([x - x**2 - 0.3]).verdict is Feasibility.UNDECIDED
 
 
 def test_nonlinear_touching_point_is_found_by_local_search() -> None:
     # |x + 0.29 sin(y) - 0.25| == 0.02 only on a curve: proved by a point, not by a box
     edge = sp.Abs(x + 0.29 * sp.sin(y) - 0.25) - 0.02
-    assert decide([edge, -edge]).verdict is Verdict.POSSIBLE
+    assert decide([edge, -edge]).verdict is Feasibility.POSSIBLE
 
 
 # ----------------------------------------------------------------- transitions
@@ -66,7 +67,7 @@ def test_guard_contradicting_the_invariant_never_fires() -> None:
     report = check_mode_graph(model(TWO_MODES, '[[transitions]]\nname = "go"\nsource = "a"\n'
                                     'target = "b"\nguard = "x >= 2"'))
     [tr] = report.transitions
-    assert (tr.guard, tr.method) == (Verdict.IMPOSSIBLE, "lp")
+    assert (tr.guard, tr.method) == (Feasibility.IMPOSSIBLE, "lp")
     assert kinds(report) == [("error", "never-fires", "go"), ("warning", "dead-mode", "b"),
                              ("info", "sink-mode", "b")]
     assert str(report.findings[0]) == (
@@ -79,7 +80,7 @@ def test_guard_contradicting_the_invariant_never_fires() -> None:
 def test_guard_that_touches_the_invariant_fires() -> None:
     report = check_mode_graph(model(TWO_MODES, '[[transitions]]\nname = "go"\nsource = "a"\n'
                                     'target = "b"\nguard = "x >= 1"'))
-    assert report.transitions[0].guard is Verdict.POSSIBLE
+    assert report.transitions[0].guard is Feasibility.POSSIBLE
     assert report.ok and report.dead_modes == () and report.sink_modes == ("b",)
 
 
@@ -88,10 +89,10 @@ def test_scenario_parameters_can_enable_a_guard() -> None:
     scenario = '[scenarios.low]\nt_end = 1.0\nparameters = { k = -0.5 }\n'
     report = check_mode_graph(model(TWO_MODES, text, extra=scenario))
     assert report.parameter_sets == ("model values", "low")
-    assert report.transitions[0].guard is Verdict.POSSIBLE
+    assert report.transitions[0].guard is Feasibility.POSSIBLE
     assert report.reachable == {"model values": ("a",), "low": ("a", "b")}
     only_defaults = check_mode_graph(model(TWO_MODES, text, extra=scenario), scenarios=[])
-    assert only_defaults.transitions[0].guard is Verdict.IMPOSSIBLE
+    assert only_defaults.transitions[0].guard is Feasibility.IMPOSSIBLE
     with pytest.raises(hybridlab.ModelError, match="unknown scenario.*'nope'"):
         check_mode_graph(model(TWO_MODES, text, extra=scenario), scenarios=["nope"])
 
@@ -101,13 +102,13 @@ def test_reset_outside_the_target_invariant_is_an_error() -> None:
     report = check_mode_graph(model(modes, '[[transitions]]\nname = "go"\nsource = "a"\n'
                                     'target = "b"\nguard = "x >= 1"\nreset = { x = "x - 5" }'))
     [tr] = report.transitions
-    assert (tr.guard, tr.reset) == (Verdict.POSSIBLE, Verdict.IMPOSSIBLE)
+    assert (tr.guard, tr.reset) == (Feasibility.POSSIBLE, Feasibility.IMPOSSIBLE)
     assert kinds(report)[0] == ("error", "reset-violates-invariant", "go")
     # the transition cannot be taken, so the target is dead as well
     assert report.dead_modes == ("b",)
     fine = check_mode_graph(model(modes, '[[transitions]]\nname = "go"\nsource = "a"\n'
                                   'target = "b"\nguard = "x >= 1"\nreset = { x = "x - 1" }'))
-    assert fine.transitions[0].reset is Verdict.POSSIBLE and fine.ok
+    assert fine.transitions[0].reset is Feasibility.POSSIBLE and fine.ok
 
 
 def test_unreachable_mode_is_dead_and_sinks_are_informational() -> None:
@@ -133,7 +134,7 @@ def test_nonlinear_guard_decided_by_intervals() -> None:
                                     'target = "b"\nguard = "x**2 + y**2 <= 1"',
                                     states="x = 3.0\ny = 0.0"))
     [tr] = report.transitions
-    assert (tr.guard, tr.method) == (Verdict.IMPOSSIBLE, "lp+interval")
+    assert (tr.guard, tr.method) == (Feasibility.IMPOSSIBLE, "lp+interval")
     assert kinds(report)[0] == ("error", "never-fires", "in_disc")
 
 
@@ -141,7 +142,7 @@ def test_nonlinear_guard_left_undecided_is_only_informational() -> None:
     report = check_mode_graph(model(TWO_MODES.replace('invariant = "x <= 1"\n', ""),
                                     '[[transitions]]\nname = "bump"\nsource = "a"\n'
                                     'target = "b"\nguard = "x - x**2 >= 0.3"'))
-    assert report.transitions[0].guard is Verdict.UNDECIDED
+    assert report.transitions[0].guard is Feasibility.UNDECIDED
     assert kinds(report)[0] == ("info", "undecided", "bump")
     assert "nonlinear" in report.findings[0].message
     # an undecided guard keeps its edge: "b" counts as reachable
@@ -168,7 +169,7 @@ def test_zero_dwell_cycle_possible() -> None:
     report = check_mode_graph(model(TWO_MODES, PING_PONG.format(reset="")))
     [cycle] = report.cycles
     assert (cycle.transitions, cycle.modes, cycle.verdict) == (
-        ("ping", "pong"), ("a", "b"), Verdict.POSSIBLE)
+        ("ping", "pong"), ("a", "b"), Feasibility.POSSIBLE)
     assert cycle.parameter_set == "model values"
     assert kinds(report) == [("warning", "zero-dwell-cycle", "ping -> pong")]
 
@@ -176,7 +177,7 @@ def test_zero_dwell_cycle_possible() -> None:
 def test_zero_dwell_cycle_made_impossible_by_a_reset() -> None:
     report = check_mode_graph(model(TWO_MODES, PING_PONG.format(reset='reset = { x = "-1" }')))
     [cycle] = report.cycles
-    assert cycle.verdict is Verdict.IMPOSSIBLE
+    assert cycle.verdict is Feasibility.IMPOSSIBLE
     assert report.ok and report.findings == ()
 
 
@@ -189,8 +190,8 @@ def test_latched_flag_lets_a_cycle_round_once_but_not_twice() -> None:
     states = 'x = 0.0\nf = { initial = 0.0, flow = "0" }'
     one = check_mode_graph(model(TWO_MODES, text, states=states), rounds=1)
     two = check_mode_graph(model(TWO_MODES, text, states=states))
-    assert one.cycles[0].verdict is Verdict.POSSIBLE
-    assert two.cycles[0].verdict is Verdict.IMPOSSIBLE
+    assert one.cycles[0].verdict is Feasibility.POSSIBLE
+    assert two.cycles[0].verdict is Feasibility.IMPOSSIBLE
 
 
 SENSOR = '''
@@ -213,10 +214,10 @@ def test_two_self_loops_without_hysteresis_form_a_zero_dwell_cycle() -> None:
     modes = '[modes.a]\nflow = { x = "1", s = "0" }\n'
     report = check_mode_graph(model(modes, SENSOR.format(off="0"), states="x = 0.0\ns = 0.0"))
     assert [(c.transitions, c.verdict) for c in report.cycles] == [
-        (("on", "off"), Verdict.POSSIBLE)]
+        (("on", "off"), Feasibility.POSSIBLE)]
     hysteresis = check_mode_graph(model(modes, SENSOR.format(off="-0.1"),
                                         states="x = 0.0\ns = 0.0"))
-    assert [c.verdict for c in hysteresis.cycles] == [Verdict.IMPOSSIBLE]
+    assert [c.verdict for c in hysteresis.cycles] == [Feasibility.IMPOSSIBLE]
 
 
 def test_single_self_loop_and_scheduled_transitions_are_not_cycles() -> None:
@@ -250,7 +251,7 @@ def test_trolley_every_mode_reachable_in_some_scenario(
     assert report.reachable["model values"] == ("hold",)  # profile 0: nothing starts
     assert set(report.reachable["jerk_limited"]) == {"hold", *(f"p4_{i}" for i in range(1, 8))}
     starts = [t for t in report.transitions if t.name.startswith("start_")]
-    assert all(t.guard is Verdict.POSSIBLE for t in starts)
+    assert all(t.guard is Feasibility.POSSIBLE for t in starts)
 
 
 def test_trolley_sensor_edges_are_zero_dwell_candidates(
@@ -264,7 +265,7 @@ def test_trolley_sensor_edges_are_zero_dwell_candidates(
     assert [f.subject for f in disabled] == ["sample"]
     # the manoeuvre loops back to "hold", but "started" is latched: never twice at one instant
     long = [c for c in trolley_report.cycles if "arrive" in c.transitions]
-    assert long and all(c.verdict is Verdict.IMPOSSIBLE for c in long)
+    assert long and all(c.verdict is Feasibility.IMPOSSIBLE for c in long)
 
 
 @pytest.mark.parametrize("path", [p for p in MODEL_FILES if p.stem != "trolley"],
@@ -272,16 +273,16 @@ def test_trolley_sensor_edges_are_zero_dwell_candidates(
 def test_small_bundled_models_are_clean(path: Path) -> None:
     report = check_mode_graph(hybridlab.load_model(path))
     assert report.ok and report.dead_modes == ()
-    assert all(t.guard is Verdict.POSSIBLE for t in report.transitions)
-    assert all(c.verdict is Verdict.IMPOSSIBLE for c in report.cycles)
+    assert all(t.guard is Feasibility.POSSIBLE for t in report.transitions)
+    assert all(c.verdict is Feasibility.IMPOSSIBLE for c in report.cycles)
 
 
 def test_thermostat_hysteresis_rules_out_a_zero_dwell_cycle() -> None:
     report = check_mode_graph(hybridlab.load_model(ROOT / "models" / "thermostat.toml"))
     [cycle] = report.cycles
-    assert cycle.verdict is Verdict.IMPOSSIBLE and cycle.method == "lp"
+    assert cycle.verdict is Feasibility.IMPOSSIBLE and cycle.method == "lp"
     assert {t.name: t.guard for t in report.transitions} == {
-        "turn_off": Verdict.POSSIBLE, "turn_on": Verdict.POSSIBLE}
+        "turn_off": Feasibility.POSSIBLE, "turn_on": Feasibility.POSSIBLE}
 
 
 # ----------------------------------------------------------------- command line

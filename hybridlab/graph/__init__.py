@@ -19,18 +19,18 @@ if TYPE_CHECKING:  # the public names, loaded on first use (hybridlab._lazy)
         TransitionCheck,
         check_mode_graph,
     )
-    from hybridlab.graph.feasibility import Decision, Verdict, decide
+    from hybridlab.graph.feasibility import Decision, Feasibility, decide
 
 __getattr__, __dir__ = lazy_exports(__name__, __file__)
 
 __all__ = [
     "CycleCheck",
     "Decision",
+    "Feasibility",
     "Finding",
     "GraphReport",
     "Severity",
     "TransitionCheck",
-    "Verdict",
     "check_mode_graph",
     "decide",
     "mode_graph",

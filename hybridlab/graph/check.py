@@ -20,7 +20,7 @@ import networkx as nx
 import sympy as sp
 
 from hybridlab.errors import ModelError
-from hybridlab.graph.feasibility import Decision, Verdict, decide
+from hybridlab.graph.feasibility import Decision, Feasibility, decide
 from hybridlab.model.checks import SymbolicModel, SymbolicTransition
 from hybridlab.model.schema import Model
 
@@ -94,8 +94,8 @@ class TransitionCheck:
     name: str
     source: str
     target: str
-    guard: Verdict
-    reset: Verdict | None
+    guard: Feasibility
+    reset: Feasibility | None
     scheduled: bool
     schedule_disabled: bool
     method: str
@@ -112,7 +112,7 @@ class CycleCheck:
 
     transitions: tuple[str, ...]
     modes: tuple[str, ...]
-    verdict: Verdict
+    verdict: Feasibility
     method: str
     parameter_set: str | None = None
     reason: str = ""
@@ -290,7 +290,7 @@ class _Checker:
         base = [e.xreplace(values) for e in (*edge.source_invariant, *edge.guard)]
         guard = self.decide(base)
         reset = None
-        if edge.target_invariant and guard.verdict is not Verdict.IMPOSSIBLE:
+        if edge.target_invariant and guard.verdict is not Feasibility.IMPOSSIBLE:
             image = {s: e.xreplace(values) for s, e in edge.reset.items()}
             after = [e.xreplace(values).xreplace(image) for e in edge.target_invariant]
             reset = self.decide(base + after)
@@ -329,12 +329,12 @@ class _Checker:
         return self.decide(rows)
 
 
-def _combine(verdicts: Sequence[Verdict]) -> Verdict:
-    if any(v is Verdict.POSSIBLE for v in verdicts):
-        return Verdict.POSSIBLE
-    if verdicts and all(v is Verdict.IMPOSSIBLE for v in verdicts):
-        return Verdict.IMPOSSIBLE
-    return Verdict.UNDECIDED
+def _combine(verdicts: Sequence[Feasibility]) -> Feasibility:
+    if any(v is Feasibility.POSSIBLE for v in verdicts):
+        return Feasibility.POSSIBLE
+    if verdicts and all(v is Feasibility.IMPOSSIBLE for v in verdicts):
+        return Feasibility.IMPOSSIBLE
+    return Feasibility.UNDECIDED
 
 
 def _cycles(edges: Sequence[_Edge], modes: Sequence[str], max_length: int
@@ -450,7 +450,7 @@ def check_mode_graph(model: Model, *, scenarios: Sequence[str] | None = None,
             continue
         decisions = [checker.decide([r.expr.xreplace({p: sp.Float(v) for p, v in ps.values.items()})
                                      for r in mode.invariants]) for ps in sets]
-        if _combine([d.verdict for d in decisions]) is Verdict.IMPOSSIBLE:
+        if _combine([d.verdict for d in decisions]) is Feasibility.IMPOSSIBLE:
             empty_modes.add(name)
             findings.append(Finding(Severity.ERROR, "empty-invariant", name,
                                     f"mode {name!r}: its invariant can never hold "
@@ -462,13 +462,13 @@ def check_mode_graph(model: Model, *, scenarios: Sequence[str] | None = None,
     for edge in edges:
         results = [checker.edge(edge, ps) for ps in sets]
         for ps, (g, r, off) in zip(sets, results, strict=True):
-            if not off and g.verdict is not Verdict.IMPOSSIBLE and (
-                    r is None or r.verdict is not Verdict.IMPOSSIBLE):
+            if not off and g.verdict is not Feasibility.IMPOSSIBLE and (
+                    r is None or r.verdict is not Feasibility.IMPOSSIBLE):
                 usable[ps.label].add(edge.tr.index)
         guard = _combine([g.verdict for g, _, _ in results])
         resets = [r.verdict for g, r, _ in results if r is not None]
         reset = _combine(resets) if resets else None
-        live = [(g, r) for g, r, _ in results if g.verdict is not Verdict.IMPOSSIBLE]
+        live = [(g, r) for g, r, _ in results if g.verdict is not Feasibility.IMPOSSIBLE]
         method = (live[0][1] or live[0][0]).method if live else results[0][0].method
         reason = next((d.reason for g, r, _ in results for d in (g, r) if d and d.reason), "")
         checks.append(TransitionCheck(
@@ -515,7 +515,7 @@ def check_mode_graph(model: Model, *, scenarios: Sequence[str] | None = None,
         for ps in sets:
             decision = checker.cycle(chain, ps)
             verdicts.append(decision.verdict)
-            if decision.verdict is Verdict.POSSIBLE:
+            if decision.verdict is Feasibility.POSSIBLE:
                 witness = ps
                 break
         verdict = _combine(verdicts)
@@ -548,11 +548,11 @@ def _transition_findings(checks: Sequence[TransitionCheck], sym: SymbolicModel,
     for c in checks:
         if c.source in empty_modes:
             continue  # already reported: nothing fires from a mode that cannot be occupied
-        if c.guard is Verdict.IMPOSSIBLE:
+        if c.guard is Feasibility.IMPOSSIBLE:
             groups.setdefault(("never-fires", c.name), []).append(c)
-        elif c.reset is Verdict.IMPOSSIBLE and c.target not in empty_modes:
+        elif c.reset is Feasibility.IMPOSSIBLE and c.target not in empty_modes:
             groups.setdefault(("reset-violates-invariant", c.name), []).append(c)
-        elif Verdict.UNDECIDED in (c.guard, c.reset):
+        elif Feasibility.UNDECIDED in (c.guard, c.reset):
             groups.setdefault(("undecided", c.name), []).append(c)
         elif c.scheduled and c.schedule_disabled:
             groups.setdefault(("schedule-disabled", c.name), []).append(c)
@@ -573,7 +573,7 @@ def _transition_findings(checks: Sequence[TransitionCheck], sym: SymbolicModel,
                                f"transition {name!r} {edge}: every state it fires from is reset "
                                f"outside the invariant of {first.target!r} [{first.method}]"))
         elif kind == "undecided":
-            what = ("whether its guard can hold" if first.guard is Verdict.UNDECIDED else
+            what = ("whether its guard can hold" if first.guard is Feasibility.UNDECIDED else
                     f"whether its reset can land inside the invariant of {first.target!r}")
             out.append(Finding(Severity.INFO, kind, name,
                                f"transition {name!r} {edge}: undecided {what} ({first.reason})"))
@@ -587,16 +587,16 @@ def _transition_findings(checks: Sequence[TransitionCheck], sym: SymbolicModel,
 def _cycle_findings(cycles: Sequence[CycleCheck], sets: Sequence[_ParameterSet]
                     ) -> list[Finding]:
     labels = {ps.label: ps for ps in sets}
-    groups: dict[tuple[Verdict, tuple[str, ...]], list[CycleCheck]] = {}
+    groups: dict[tuple[Feasibility, tuple[str, ...]], list[CycleCheck]] = {}
     for c in cycles:
-        if c.verdict is not Verdict.IMPOSSIBLE:
+        if c.verdict is not Feasibility.IMPOSSIBLE:
             groups.setdefault((c.verdict, _rotate(c.transitions)), []).append(c)
     out = []
     for (verdict, names), group in groups.items():
         first = group[0]
         where = (first.text if len(group) == 1 else
                  f"{' -> '.join(names)} (in {len(group)} places, first {first.text})")
-        if verdict is Verdict.POSSIBLE:
+        if verdict is Feasibility.POSSIBLE:
             ps = labels[first.parameter_set] if first.parameter_set else None
             under = f", {ps.where()}" if ps else ""
             out.append(Finding(Severity.WARNING, "zero-dwell-cycle", " -> ".join(names),

@@ -8,14 +8,14 @@ numbers involved), so a guard that only touches an invariant still holds.
 
 - Every row affine: one LP (HiGHS) maximises the smallest row slack ``s``
   (rows normalised by the norm of their gradient, so ``s`` is a distance);
-  ``s < -tol`` is :attr:`Verdict.IMPOSSIBLE`, otherwise :attr:`Verdict.POSSIBLE`.
+  ``s < -tol`` is :attr:`Feasibility.IMPOSSIBLE`, otherwise :attr:`Feasibility.POSSIBLE`.
 - Some row nonlinear: the affine rows alone are decided first (impossible
   there is impossible overall); then a box is taken from the bounds the affine
   rows imply and split (branch and prune) up to ``max_boxes`` times. A box on
   which some row's interval enclosure lies below ``-tol`` holds no solution;
   a box (or a point) on which every nonlinear row is certainly ``>= -tol`` and
   the affine rows are feasible (LP) proves a solution. Nothing pruned away
-  and nothing proved is :attr:`Verdict.UNDECIDED`.
+  and nothing proved is :attr:`Feasibility.UNDECIDED`.
 """
 
 from __future__ import annotations
@@ -33,12 +33,12 @@ from scipy.optimize import least_squares, linprog
 from hybridlab.symbolic.intervals import EmptyInterval, Interval, compile_interval
 from hybridlab.symbolic.printing import PrintError, numpy_function
 
-__all__ = ["Verdict", "Decision", "decide"]
+__all__ = ["Feasibility", "Decision", "decide"]
 
 _INF = math.inf
 
 
-class Verdict(StrEnum):
+class Feasibility(StrEnum):
     """The answer to "can these inequalities hold together?"."""
 
     POSSIBLE = "possible"
@@ -55,7 +55,7 @@ class Decision:
 
     Attributes
     ----------
-    verdict : Verdict
+    verdict : Feasibility
         The answer.
     method : str
         ``"constant"`` (no state appears), ``"lp"`` (every row affine),
@@ -70,10 +70,10 @@ class Decision:
     --------
     >>> x = sp.Symbol("x", real=True)
     >>> decide([x - 2, 1 - x]).verdict       # x >= 2 and x <= 1
-    <Verdict.IMPOSSIBLE: 'impossible'>
+    <Feasibility.IMPOSSIBLE: 'impossible'>
     """
 
-    verdict: Verdict
+    verdict: Feasibility
     method: str
     margin: float | None = None
     reason: str = ""
@@ -269,32 +269,32 @@ class _Search:
         return dict(zip(variables, (float(v) for v in fit.x), strict=True))
 
     def run(self, box: dict[sp.Symbol, Interval], first_point: Mapping[sp.Symbol, float],
-            max_boxes: int) -> Verdict:
+            max_boxes: int) -> Feasibility:
         if self.point_proves(first_point):
-            return Verdict.POSSIBLE
+            return Feasibility.POSSIBLE
         queue = deque([box])
         for _ in range(max_boxes):
             if not queue:
-                return Verdict.IMPOSSIBLE
+                return Feasibility.IMPOSSIBLE
             current = queue.popleft()
             kind = self.classify(current)
             if kind == "empty":
                 continue
             if kind == "certain":
                 if self.affine_feasible(current):
-                    return Verdict.POSSIBLE
+                    return Feasibility.POSSIBLE
                 continue
             halves = self.split(current)
             if not halves:  # too narrow to split further: cannot settle this box
-                return Verdict.UNDECIDED
+                return Feasibility.UNDECIDED
             queue.extend(halves)
         if not queue:
-            return Verdict.IMPOSSIBLE
+            return Feasibility.IMPOSSIBLE
         # nothing proved either way: look for a point that satisfies every row
         found = self.local_point(first_point)
         if found is not None and self.point_proves({v: found[v] for v in self.nl_vars}):
-            return Verdict.POSSIBLE
-        return Verdict.UNDECIDED
+            return Feasibility.POSSIBLE
+        return Feasibility.UNDECIDED
 
     def split(self, box: Mapping[sp.Symbol, Interval]) -> list[dict]:
         v = max(self.nl_vars, key=lambda s: (box[s].width, -self.order[s]))
@@ -333,11 +333,11 @@ def decide(rows: Iterable[sp.Expr], *, tol: float = 1e-9, max_boxes: int = 256) 
     --------
     >>> x, y = sp.symbols("x y", real=True)
     >>> decide([x - 1, 1 - x]).verdict          # touching: x == 1 satisfies both
-    <Verdict.POSSIBLE: 'possible'>
+    <Feasibility.POSSIBLE: 'possible'>
     >>> decide([1 - x**2 - y**2, x - 2]).verdict  # the unit disc has no point with x >= 2
-    <Verdict.IMPOSSIBLE: 'impossible'>
+    <Feasibility.IMPOSSIBLE: 'impossible'>
     >>> decide([x - x**2 - 0.3]).verdict        # true (x - x^2 <= 1/4), not provable unbounded
-    <Verdict.UNDECIDED: 'undecided'>
+    <Feasibility.UNDECIDED: 'undecided'>
     """
     rows = list(rows)
     affine: list[_Affine] = []
@@ -348,23 +348,23 @@ def decide(rows: Iterable[sp.Expr], *, tol: float = 1e-9, max_boxes: int = 256) 
             nonlinear.append(row)
         elif not form.coeffs:
             if form.const < -tol * max(1.0, abs(form.const)):
-                return Decision(Verdict.IMPOSSIBLE, "constant", form.const)
+                return Decision(Feasibility.IMPOSSIBLE, "constant", form.const)
         else:
             affine.append(form)
     if not affine and not nonlinear:
-        return Decision(Verdict.POSSIBLE, "constant" if rows else "none")
+        return Decision(Feasibility.POSSIBLE, "constant" if rows else "none")
     point: dict[sp.Symbol, float] = {}
     margin = None
     if affine:
         variables = sorted({v for r in affine for v in r.coeffs}, key=str)
         solved = _slack_lp(affine, variables)
         if solved is None:
-            return Decision(Verdict.UNDECIDED, "lp", reason="the LP solver did not converge")
+            return Decision(Feasibility.UNDECIDED, "lp", reason="the LP solver did not converge")
         margin, x = solved
         if margin < -tol * _scale(affine):
-            return Decision(Verdict.IMPOSSIBLE, "lp", margin)
+            return Decision(Feasibility.IMPOSSIBLE, "lp", margin)
         if not nonlinear:
-            return Decision(Verdict.POSSIBLE, "lp", margin)
+            return Decision(Feasibility.POSSIBLE, "lp", margin)
         point = dict(zip(variables, (float(v) for v in x), strict=True))
     search = _Search(affine, nonlinear, tol)
     affine_vars = set(search.affine_vars)
@@ -373,6 +373,6 @@ def decide(rows: Iterable[sp.Expr], *, tol: float = 1e-9, max_boxes: int = 256) 
     verdict = search.run(box, {v: point.get(v, _representative(box[v])) for v in search.nl_vars},
                          max_boxes)
     reason = ""
-    if verdict is Verdict.UNDECIDED:
+    if verdict is Feasibility.UNDECIDED:
         reason = f"nonlinear: {nonlinear[0]} >= 0"
     return Decision(verdict, "lp+interval", margin, reason)
