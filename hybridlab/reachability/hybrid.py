@@ -151,6 +151,8 @@ class _Analysis:
         self.stop_unproved = tuple(stop_unproved)
         self.t_start = t_start
         self.t_end = t_end
+        if options.step is None:  # reach() resolves the default step before the analysis
+            raise ValueError("the analysis needs options.step")
         self.step = float(options.step)
         self.compiled = system.compiled
         self.started = _time.time()
@@ -284,6 +286,8 @@ class _Analysis:
         clusters: dict[int, list[tuple[Zonotope, float, float]]] = {tr.index: []
                                                                      for tr in guarded}
         P = item.P
+        P_next: Zonotope | None  # None once cut away by the invariant
+        H: Zonotope | None
         rel = 0.0
         now = item.t_lo  # exact current time (only meaningful when exact_time)
         done_at = item.sched_done
@@ -446,7 +450,7 @@ class _Analysis:
         """``Z`` intersected with the guard and invariant rows, over-approximated by a box
         (or ``Z`` itself when nothing cuts it)."""
         A, b = _linear_rows(guard, invariant)
-        box = Z.bounds()
+        box: np.ndarray | None = Z.bounds()
         if A.shape[0] and self.options.intersection == "lp":
             box = Z.bounds_within(A, b)
             if box is None:

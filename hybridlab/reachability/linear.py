@@ -302,16 +302,16 @@ class Propagator:
         S = basis.S
         segment = np.zeros_like(y_c)
         segment[s] = segment_s
-        gens = [half_sum]
+        parts = [half_sum]
         err = product_error(np.abs(S), np.abs(offset) + np.abs(segment) + rad)
         for cols in [shared] + own:  # Girard's hull, one interpolation parameter per group
             S_g = S[:, cols]
-            gens += [basis.from_modal(dy_c[cols], cols)[:, None],
-                     basis.from_modal(dy_G[cols], cols)]
+            parts += [basis.from_modal(dy_c[cols], cols)[:, None],
+                      basis.from_modal(dy_G[cols], cols)]
             err = err + product_error(np.abs(S_g), up(np.abs(dy_c[cols])
                                                       + np.sum(np.abs(dy_G[cols]), axis=1)))
-        gens += [basis.from_modal(segment)[:, None], S * rad[None, :]]
-        return center + basis.from_modal(offset), np.hstack(gens), up(err)
+        parts += [basis.from_modal(segment)[:, None], S * rad[None, :]]
+        return center + basis.from_modal(offset), np.hstack(parts), up(err)
 
     def _taylor_correction(self, y_c: np.ndarray, y_gen: np.ndarray, s: slice
                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -166,6 +166,8 @@ def block_basis(Ah: np.ndarray, r: float, stiff: bool = True) -> Basis | None:
     if not np.all(np.isfinite(lam)):
         return None
     n = Ah.shape[0]
+    S: np.ndarray | None
+    sizes: list[int]
     if not stiff or np.max(np.abs(lam)) * r <= FAST:
         if np.max(np.sum(np.abs(Ah), axis=1)) * r <= FAST:
             return None

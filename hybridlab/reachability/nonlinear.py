@@ -42,6 +42,7 @@ from hybridlab.reachability.modal import eigenbasis
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.sets import Zonotope
 from hybridlab.reachability.system import ModeSystem, System
+from hybridlab.symbolic.intervals import IntervalFunction
 
 __all__ = ["FlowStepper"]
 
@@ -73,7 +74,7 @@ class FlowStepper:
         self.n_sigma = len(self.mode.sigma_index)
         self._props: dict[tuple[bytes, bytes, float], Propagator] = {}
         self._remainder = np.zeros(len(self.mode.zsyms))
-        self._switch_lie = None
+        self._switch_lie: IntervalFunction | None = None
         self._affine_A: np.ndarray | None = None
         self._reduction_basis: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._basis_sought = False  # an affine mode's eigenbasis is sought once
@@ -172,6 +173,7 @@ class FlowStepper:
                 continue
             a, b = m.switches.a[k], m.switches.b[k]
             lo, hi = min(0.0, start[k, 0]), max(0.0, start[k, 1])
+            Z: Zonotope | None
             for Z_name in ("H", "P_next"):
                 Z = H if Z_name == "H" else P_next
                 Z = Z.intersect_halfspace(a, hi - b)     # a z + b <= hi
@@ -234,7 +236,10 @@ class FlowStepper:
         hi = np.r_[np.maximum(box[:, 1], z_star), u_hi]
         w_star = np.r_[z_star, u_mid]
         delta = np.maximum(np.abs(lo - w_star), np.abs(hi - w_star))
-        h_lo, h_hi = self.mode.hessian(lo, hi)
+        hessian = self.mode.hessian
+        if hessian is None:  # None only for an affine flow, which has no remainder to bound
+            raise RuntimeError(f"mode {self.mode.name!r}: a remainder bound without a Hessian")
+        h_lo, h_hi = hessian(lo, hi)
         nw = w_star.size
         mag = np.maximum(np.abs(h_lo), np.abs(h_hi)).reshape(H.dim, nw, nw)
         if not np.all(np.isfinite(mag)):

@@ -37,7 +37,7 @@ class _Context:
         key = expr if isinstance(expr, str) else as_expression(expr)
         if key in self.cache:
             return self.cache[key]
-        e = parse_expression(expr, self.namespace) if isinstance(expr, str) else key
+        e: sp.Expr = parse_expression(expr, self.namespace) if isinstance(expr, str) else key
         e = e.xreplace(dict(self.values))
         t_sym = sp.Symbol("t", real=True)
         zs = self.zsyms

@@ -296,13 +296,13 @@ class Avoid:
 
 def _box_items(box: Any, names: Sequence[str], label: str) -> list[tuple[str, tuple[float, float]]]:
     if hasattr(box, "lo") and hasattr(box, "hi"):
-        lo, hi = np.asarray(box.lo, dtype=float), np.asarray(box.hi, dtype=float)
-        if lo.shape != (len(names),) or hi.shape != (len(names),):
+        lo_v, hi_v = np.asarray(box.lo, dtype=float), np.asarray(box.hi, dtype=float)
+        if lo_v.shape != (len(names),) or hi_v.shape != (len(names),):
             raise SpecError(label, f"a box set must cover all {len(names)} states", "box")
-        box = {n: (lo[i], hi[i]) for i, n in enumerate(names)}
+        box = {n: (lo_v[i], hi_v[i]) for i, n in enumerate(names)}
     if not isinstance(box, Mapping) or not box:
         raise SpecError(label, "box must map state names to (lo, hi)", "box")
-    items = []
+    items: list[tuple[str, tuple[float, float]]] = []
     for state, bounds in box.items():
         if state not in names:
             raise SpecError(label, "unknown state in box", str(state))

@@ -105,7 +105,8 @@ class Rows:
                 self.linear[i] = True
                 self.a[i] = grad[0]
                 self.b[i] = float(e.xreplace(zero))
-        self._interval = IntervalFunction(self.exprs, zsyms) if self.size else None
+        self._interval: IntervalFunction | None = (IntervalFunction(self.exprs, zsyms)
+                                                   if self.size else None)
 
     def range(self, Z, box: np.ndarray | None = None) -> np.ndarray:
         """Enclosure ``(size, 2)`` of every row over the zonotope ``Z``."""
@@ -124,6 +125,8 @@ class Rows:
         nonlin = np.flatnonzero(~self.linear)
         if nonlin.size:
             box = Z.bounds() if box is None else box
+            if self._interval is None:  # built whenever there are rows
+                raise RuntimeError("rows without their interval function")
             lo, hi = self._interval(box[:, 0], box[:, 1])
             out[nonlin, 0] = lo[nonlin]
             out[nonlin, 1] = hi[nonlin]

@@ -19,7 +19,7 @@ from __future__ import annotations
 import enum
 import math
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -401,7 +401,7 @@ class _Attempt:
     jumped: bool
 
     @staticmethod
-    def of(specs: list[Spec], result: Any, stage: dict[str, Any]) -> _Attempt:
+    def of(specs: Sequence[Spec], result: Any, stage: dict[str, Any]) -> _Attempt:
         bounds = bound_specs(specs, result)
         proved = all(s.holds(b.lower) for s, b in zip(specs, bounds, strict=True))
         return _Attempt(result, bounds, min(bounds, key=lambda b: b.lower), proved, stage,
