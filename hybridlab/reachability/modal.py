@@ -55,7 +55,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from flint import acb, arb, arb_mat
-from scipy import linalg
 
 from hybridlab.reachability.balls import enclosure, inverse_enclosure, scalar_bounds, to_arb
 
@@ -185,6 +184,8 @@ def block_basis(Ah: np.ndarray, r: float, stiff: bool = True) -> Basis | None:
 
 def _stiff_basis(Ah: np.ndarray, r: float) -> tuple[np.ndarray, list[int], int] | None:
     """``(S, fast block sizes, number of slow coordinates)``, float, uncertified."""
+    from scipy import linalg  # on first use: mild modes never need it
+
     n = Ah.shape[0]
     T, Q, n_slow = linalg.schur(Ah, output="real", sort=_is_slow(r))
     if n_slow == n or n_slow == 0:
@@ -211,6 +212,8 @@ def _stiff_basis(Ah: np.ndarray, r: float) -> tuple[np.ndarray, list[int], int] 
 
 def _balance_slow(Ah: np.ndarray, S: np.ndarray, n_slow: int) -> np.ndarray | None:
     """``S`` with its slow columns scaled by powers of two that balance the slow block."""
+    from scipy import linalg  # on first use: mild modes never need it
+
     try:
         B = np.linalg.solve(S, Ah @ S)
     except np.linalg.LinAlgError:
@@ -311,7 +314,7 @@ def _real_eigenbasis(T: np.ndarray, max_condition: float = 1e8
     """
     m = T.shape[0]
     whole = (np.eye(m), [m])
-    w, V = linalg.eig(T)
+    w, V = np.linalg.eig(T)
     if not (np.all(np.isfinite(w)) and np.all(np.isfinite(V))):
         return whole
     order = np.argsort(w.real, kind="stable")
@@ -324,11 +327,13 @@ def _real_eigenbasis(T: np.ndarray, max_condition: float = 1e8
         if pairs is None:
             return whole
         w, V = w[pairs], V[:, pairs]
-        _, Vr = linalg.cdf2rdf(w, V)
+        Vr = V.real.copy()  # a pair (v, conj v) spans (-Im v, Re v), as scipy's cdf2rdf
         sizes = []
         i = 0
         while i < m:
             size = 2 if w[i].imag != 0 else 1
+            if size == 2:
+                Vr[:, i], Vr[:, i + 1] = -V[:, i].imag, V[:, i].real
             sizes.append(size)
             i += size
     if not np.all(np.isfinite(Vr)) or np.linalg.cond(Vr) > max_condition:

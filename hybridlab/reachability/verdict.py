@@ -1,9 +1,11 @@
 """Verdicts: SAFE (proved by reachability), UNSAFE (a counterexample), UNKNOWN (and why).
 
-:func:`check` runs the cheap part first: falsification by simulation from the
-centre, corners and samples of the initial set
-(:mod:`hybridlab.reachability.falsify`). A violation found there is a concrete
-trajectory, so the verdict is UNSAFE. Otherwise the flowpipes of
+:func:`check` first tries a quick proof: the flowpipes at the default step, ended at
+the first set that does not prove every spec or after a second; a proof needs no
+simulation, so a small model is proved before the simulator would have loaded.
+Otherwise falsification by simulation from the centre, corners and samples of the
+initial set (:mod:`hybridlab.reachability.falsify`) runs; a violation found there
+is a concrete trajectory, so the verdict is UNSAFE. Otherwise the flowpipes of
 :func:`hybridlab.reach` are computed and every spec is bounded over every reach
 set of the modes it covers (``ReachSet.bound``: exact for rows linear in the
 states, interval arithmetic otherwise). All lower bounds ``>= 0`` (``> 0`` for
@@ -201,7 +203,7 @@ def check(
     executor: Any = None,
     **reach_overrides: Any,
 ) -> Verdict:
-    """Check safety specs on every trajectory from an initial set: falsify, then prove.
+    """Check safety specs on every trajectory from an initial set: prove, falsify, refine.
 
     Parameters
     ----------
