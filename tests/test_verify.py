@@ -214,6 +214,34 @@ def test_counterexample_replays_bit_for_bit(ball):
     assert first(cx.t_worst)[1] == pytest.approx(11 - cx.margin, abs=1e-9)
 
 
+_ENGINES = """
+import sys
+import hybridlab
+from hybridlab.verify import check_safety
+osc = hybridlab.loads_model(sys.argv[1])
+for model, t_end, spec in (("models/bouncing_ball.toml", 2.0, "v >= -13"),
+                           (osc, 200.0, "x >= -0.99999")):
+    v = check_safety(model, initial={}, t_end=t_end, safe=spec, prove=False)
+    cx = v.counterexample
+    again = cx.replay()
+    print(v.status.name, cx.options.backend,
+          "hybridlab.simulation.compiled.backend" in sys.modules,
+          again.stats["backend"] == cx.options.backend)
+"""
+
+
+def test_short_runs_are_falsified_on_the_reference_engine_and_long_ones_compiled():
+    import subprocess
+    import sys
+
+    pytest.importorskip("numba")
+    out = subprocess.run([sys.executable, "-c", _ENGINES, OSCILLATOR], capture_output=True,
+                         text=True, check=True, cwd=ROOT).stdout.split("\n")
+    # the ball's runs are a few steps: no kernel loaded; the oscillator's take thousands
+    assert out[0] == "UNSAFE reference False True"
+    assert out[1] == "UNSAFE compiled True True"
+
+
 def test_uncertain_constant_inputs_are_sampled_and_reported():
     drift = hybridlab.compile_model(hybridlab.loads_model(DRIFT))
     pb = HybridProblem.build(drift, initial={"x": (0.0, 0.5)}, t_end=2.0, inputs={"u": (-1.0, 1.0)})
@@ -290,6 +318,11 @@ def test_safe_with_a_proven_margin_on_a_closed_form():
     lows = {b.spec: b.lower for b in verdict.spec_bounds}
     assert 0.0 <= lows["x >= 0.3"] <= math.exp(-1.0) - 0.3
     assert verdict.as_dict()["verdict"] == "SAFE"
+
+
+def test_a_misspelt_option_fails_before_any_work(ball):
+    with pytest.raises(TypeError, match="unknown reach option.*rtoll"):
+        check_safety(ball, initial={}, t_end=1.0, safe="h <= 20", prove=False, rtoll=1e-9)
 
 
 def test_a_quick_proof_needs_no_simulation():

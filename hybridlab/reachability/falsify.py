@@ -34,7 +34,7 @@ from hybridlab.reachability.options import FalsifyOptions
 from hybridlab.reachability.spec import Spec
 from hybridlab.simulation.options import SimulationOptions
 from hybridlab.simulation.problem import HybridProblem
-from hybridlab.simulation.result import SimulationResult
+from hybridlab.simulation.result import SimulationResult, Status
 from hybridlab.symbolic.compile import CompiledModel
 from hybridlab.symbolic.functions import VectorFunction
 
@@ -45,12 +45,34 @@ _EMPTY = np.empty(0)
 _INTERIOR = (0.25, 0.5, 0.75)  # extra dense points per integrator step
 
 
-def run_point(problem: HybridProblem, x0: np.ndarray, p: np.ndarray) -> SimulationResult:
-    """Simulate ``problem`` from ``x0`` with parameter vector ``p`` (deterministic)."""
+_REFERENCE_STEPS = 200
+"""Integrator steps a falsification run may take on the reference engine, and ..."""
+_REFERENCE_TOTAL_STEPS = 600
+"""... the steps all of them may take, before the search moves to the compiled kernel
+(whose loading costs about as much as 600 reference steps). Counted in steps, not
+seconds, so that which engine runs which simulation is deterministic."""
+
+
+def run_point(problem: HybridProblem, x0: np.ndarray, p: np.ndarray,
+              options: SimulationOptions | None = None) -> SimulationResult:
+    """Simulate ``problem`` from ``x0`` with parameter vector ``p`` (deterministic), with
+    ``options`` in place of the problem's if given."""
     return _simulate(problem.compiled, problem.mode, problem.t_start, problem.t_end,
-                     problem.options,
+                     options or problem.options,
                      dict(zip(problem.compiled.state_names, map(float, x0), strict=True)),
                      dict(zip(problem.compiled.parameter_names, map(float, p), strict=True)))
+
+
+def _reference_first(problem: HybridProblem) -> bool:
+    """Whether short runs should go to the reference engine: under ``backend="auto"``,
+    while loading the compiled kernel would still cost its time, and when ``max_step``
+    allows a run of ``_REFERENCE_STEPS`` steps."""
+    import sys
+
+    options = problem.options
+    return (options.backend == "auto"
+            and "hybridlab.simulation.compiled.backend" not in sys.modules
+            and (problem.t_end - problem.t_start) / options.max_step <= _REFERENCE_STEPS)
 
 
 def _simulate(compiled: CompiledModel, mode: str, t_start: float, t_end: float,
@@ -320,6 +342,10 @@ class FalsificationSearch:
         self._most_jumps = 0
         self._time = 0.0
         self._found: Falsification | None = None
+        # short runs go to the reference engine while they stay short, so a small model
+        # is falsified without loading the compiled kernel (only under backend="auto",
+        # and only while this process has not loaded the kernel anyway)
+        self._reference_steps = 0 if _reference_first(problem) else None
 
     def sample(self) -> Falsification:
         """Simulate the centre, the corners and the Latin-hypercube samples."""
@@ -364,7 +390,7 @@ class FalsificationSearch:
         if point is None:
             return None
         x0, p = point
-        result = run_point(self.problem, x0, p)
+        result = self._run(x0, p)
         self._runs += 1
         self._most_jumps = max(self._most_jumps, len(result.jumps))
         if not result.status.ok:
@@ -377,8 +403,22 @@ class FalsificationSearch:
                 self._best_u[i].append((m.margin, u))
         return out, result, p
 
+    def _run(self, x0: np.ndarray, p: np.ndarray) -> SimulationResult:
+        if self._reference_steps is not None:
+            options = self.problem.options
+            short = replace(options, backend="reference",
+                            max_steps=min(options.max_steps, _REFERENCE_STEPS))
+            result = run_point(self.problem, x0, p, short)
+            self._reference_steps += int(result.stats.get("steps", 0))
+            if self._reference_steps > _REFERENCE_TOTAL_STEPS:
+                self._reference_steps = None  # from the next run on: the compiled kernel
+            if result.status is not Status.STEP_LIMIT or options.max_steps <= _REFERENCE_STEPS:
+                return result
+            self._reference_steps = None
+        return run_point(self.problem, x0, p)
+
     def _counterexample(self, u: np.ndarray, evaluated: Any) -> Counterexample:
-        out, _, p = evaluated
+        out, result, p = evaluated
         m = next(m for m in out if m.violation_t is not None)
         problem = self.problem
         names = problem.compiled.state_names
@@ -392,7 +432,8 @@ class FalsificationSearch:
             parameters=dict(zip(pnames, map(float, p), strict=True)),
             inputs={k: float(p[pnames.index(k)]) for k in problem.input_box},
             initial_mode=problem.mode, t_start=problem.t_start, t_end=problem.t_end,
-            options=problem.options, compiled=problem.compiled)
+            options=replace(problem.options, backend=str(result.stats["backend"])),
+            compiled=problem.compiled)
 
 
 def falsify(problem: HybridProblem, specs: Sequence[Spec],

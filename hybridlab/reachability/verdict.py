@@ -34,6 +34,7 @@ from hybridlab.reachability.falsify import (
     FalsificationSearch,
     FalsifyOptions,
 )
+from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.spec import Avoid, Spec, as_specs
 from hybridlab.simulation.executors import check_executor
 from hybridlab.simulation.options import SimulationOptions
@@ -246,6 +247,7 @@ def check(
     Verdict
     """
     check_executor(executor)
+    (options or ReachOptions()).updated(**reach_overrides)  # a misspelt option fails first
     started = time.perf_counter()
     problem = HybridProblem.build(model, t_end, initial=initial, mode=mode, scenario=scenario,
                                   params=params, inputs=inputs, options=simulation)
