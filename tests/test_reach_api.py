@@ -35,12 +35,14 @@ def test_top_level_exports():
     ({"initial": {"T": (0.0, math.inf)}}, r"initial\['T'\] must be finite"),
     ({"params": {"b": (1.0, 2.0)}}, "unknown parameter 'b'"),
     ({"inputs": {"a": 0.1}}, r"inputs\['a'\] must be a \(lo, hi\) pair"),
-    ({"params": {"a": (0.1, 0.2)}, "inputs": {"a": (0.1, 0.2)}}, "inputs: 'a' is also given in params"),
+    ({"params": {"a": (0.1, 0.2)}, "inputs": {"a": (0.1, 0.2)}},
+     "inputs: 'a' is also given in params"),
     ({"inputs": {"T_high": (21.0, 23.0)}}, "appears in the guard of transition 'turn_off'"),
     ({"mode": "off"}, "unknown mode 'off'"),
     ({"scenario": "nope"}, "unknown scenario 'nope'"),
     ({"t_end": -1.0}, "t_end must be greater than t_start"),
-    ({"initial": hybridlab.Box([0.0, 0.0], [1.0, 1.0])}, "initial: a set must be over all 1 states"),
+    ({"initial": hybridlab.Box([0.0, 0.0], [1.0, 1.0])},
+     "initial: a set must be over all 1 states"),
 ])
 def test_bad_arguments_raise_one_line_reach_errors(thermostat, kwargs, message):
     kwargs = {"t_end": 1.0, **kwargs}
