@@ -278,15 +278,17 @@ def test_kernel_cache_is_checked_where_numba_keeps_it(tmp_path):
     assert (cache / "kernel-sources.sha256").is_file()
 
 
-def test_a_compile_is_announced_on_a_terminal_only(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_compile_is_announced_on_a_terminal_only(monkeypatch: pytest.MonkeyPatch,
+                                                    tmp_path: Path) -> None:
+    monkeypatch.setenv("HYBRIDLAB_CACHE_DIR", str(tmp_path))
     class Terminal(io.StringIO):
         def isatty(self) -> bool:
             return True
 
     def fresh(tag: str) -> hybridlab.Model:  # a model no cache has seen
-        rate = f"{time.time_ns()}{ord(tag)}e-40"
+        rate = 1.0 + (time.time_ns() % 10**12) * 1e-12 + ord(tag) * 1e-3  # new generated code
         return hybridlab.loads_model(f'name = "fresh{tag}"\nstates = {{ x = 1.0 }}\n'
-                                     f'[modes.a]\nflow = {{ x = "-x*(1 + {rate})" }}\n'
+                                     f'[modes.a]\nflow = {{ x = "-{rate!r}*x" }}\n'
                                      '[initial]\nmode = "a"\n')
 
     terminal = Terminal()
