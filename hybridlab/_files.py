@@ -99,7 +99,19 @@ def replaced(path: str | Path, mode: str = "w", **open_args: Any) -> Iterator[IO
 
 def replace_file(path: str | Path, write: Callable[[IO[Any]], object], binary: bool = False,
                  ) -> None:
-    """Replace ``path`` atomically with what ``write`` writes to the file object it gets."""
+    """Replace ``path`` atomically with what ``write`` writes to the file object it gets.
+
+    Examples
+    --------
+    >>> import json, pathlib, tempfile
+    >>> target = pathlib.Path(tempfile.mkdtemp()) / "result.json"
+    >>> replace_file(target, lambda fh: json.dump({"t_end": 10.0}, fh))
+    >>> target.read_text()
+    '{"t_end": 10.0}'
+    >>> replace_file(target, lambda fh: fh.write(b"\\x00\\x01"), binary=True)
+    >>> target.read_bytes()
+    b'\\x00\\x01'
+    """
     if binary:
         with replaced(path, "wb") as fh:
             write(fh)
@@ -109,5 +121,14 @@ def replace_file(path: str | Path, write: Callable[[IO[Any]], object], binary: b
 
 
 def replace_text(path: str | Path, text: str) -> None:
-    """Replace ``path`` atomically with ``text`` (UTF-8)."""
+    """Replace ``path`` atomically with ``text`` (UTF-8).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> target = pathlib.Path(tempfile.mkdtemp()) / "note.txt"
+    >>> replace_text(target, "h = 10 m\\n")
+    >>> target.read_text(encoding="utf-8")
+    'h = 10 m\\n'
+    """
     replace_file(path, lambda fh: fh.write(text))

@@ -11,7 +11,16 @@ __all__ = ["StepMetrics", "step_metrics", "count_crossings"]
 
 @dataclass(frozen=True)
 class StepMetrics:
-    """Overshoot (percent of the step) and settling time into a relative band."""
+    """Overshoot (percent of the step) and settling time into a relative band.
+
+    Examples
+    --------
+    >>> m = step_metrics([0.0, 1.0, 2.0, 3.0], [0.0, 1.2, 0.99, 1.0], 0.0, 1.0)
+    >>> m
+    StepMetrics(overshoot_pct=19.99..., settling_time=2.0, band=0.02)
+    >>> f"{m.overshoot_pct:.0f} % overshoot, settled at t = {m.settling_time}"
+    '20 % overshoot, settled at t = 2.0'
+    """
 
     overshoot_pct: float
     settling_time: float

@@ -17,7 +17,19 @@ __all__ = [
 
 
 class HybridlabError(Exception):
-    """Base class of every error raised by hybridlab."""
+    """Base class of every error raised by hybridlab.
+
+    Examples
+    --------
+    One ``except`` clause catches whatever hybridlab raises on purpose:
+
+    >>> import hybridlab
+    >>> try:
+    ...     hybridlab.loads_model('name = "m"')
+    ... except HybridlabError as exc:
+    ...     print(type(exc).__name__, isinstance(exc, ValueError))
+    ModelError True
+    """
 
 
 class ExpressionError(HybridlabError, ValueError):
@@ -29,6 +41,18 @@ class ExpressionError(HybridlabError, ValueError):
         What is wrong, in one sentence.
     token : str
         The offending piece of text (a name, an operator, a literal).
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> from hybridlab.model.expressions import parse_expression
+    >>> try:
+    ...     parse_expression("__import__('os')", {"x": sp.Symbol("x")})
+    ... except ExpressionError as exc:
+    ...     print(exc, "|", exc.message, "|", exc.token)
+    unknown function (token '__import__') | unknown function | __import__
+    >>> str(ExpressionError("empty expression"))
+    'empty expression'
     """
 
     def __init__(self, message: str, token: str = "") -> None:
@@ -98,12 +122,53 @@ def _one_line(text: str) -> str:
 
 
 class CompilationError(HybridlabError, ValueError):
-    """A valid model cannot be compiled (for example a singular mass matrix)."""
+    """A valid model cannot be compiled (for example a singular mass matrix).
+
+    Examples
+    --------
+    A kinetic energy without the second velocity ``w2`` has a singular mass matrix:
+
+    >>> import sympy as sp
+    >>> from hybridlab.symbolic.lagrange import lagrange_equations
+    >>> x, y, w1, w2 = sp.symbols("x y w1 w2")
+    >>> try:
+    ...     lagrange_equations(w1**2 / 2, 0, [x, y], [w1, w2])
+    ... except CompilationError as exc:
+    ...     print(exc)
+    mechanics: the mass matrix d2T/du2 is singular; check that the kinetic energy involves
+    every velocity
+    """
 
 
 class SimulationError(HybridlabError, RuntimeError):
-    """A simulation cannot proceed and the caller asked for an exception."""
+    """A simulation cannot proceed and the caller asked for an exception.
+
+    Examples
+    --------
+    It is also a ``RuntimeError``, so generic handlers keep working:
+
+    >>> try:
+    ...     raise SimulationError("transition 'bounce' has no guard to evaluate")
+    ... except RuntimeError as exc:
+    ...     print(f"{type(exc).__name__}: {exc}")
+    SimulationError: transition 'bounce' has no guard to evaluate
+    """
 
 
 class ZenoError(SimulationError):
-    """Raised under ``zeno="error"`` when events accumulate in finite time."""
+    """Raised under ``zeno="error"`` when events accumulate in finite time.
+
+    The message reads ``Zeno behaviour: ...`` and names the transition and the
+    accumulation time, as ``simulate(ball, t_end=20.0, zeno="error")`` does for the
+    bouncing ball.
+
+    Examples
+    --------
+    >>> try:
+    ...     raise ZenoError("Zeno behaviour: transition 'bounce' fired 63 times with dwell "
+    ...                     "times shrinking by a factor 0.8; firings accumulate at t = 12.85")
+    ... except SimulationError as exc:  # a ZenoError is a SimulationError
+    ...     print(f"{type(exc).__name__}: {exc}")
+    ZenoError: Zeno behaviour: transition 'bounce' fired 63 times with dwell times shrinking
+    by a factor 0.8; firings accumulate at t = 12.85
+    """

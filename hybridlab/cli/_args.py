@@ -27,11 +27,34 @@ EXIT_BUG = 70
 
 
 class UsageError(ValueError):
-    """A wrong command line: printed as one line, exit code 2."""
+    """A wrong command line: printed as one line, exit code 2.
+
+    Examples
+    --------
+    >>> try:
+    ...     Parser(prog="hybridlab").parse_args(["--bogus"])
+    ... except UsageError as exc:
+    ...     print(f"hybridlab: error: {exc}")
+    hybridlab: error: unrecognized arguments: --bogus
+    >>> issubclass(UsageError, ValueError)
+    True
+    """
 
 
 class Parser(argparse.ArgumentParser):
-    """An argument parser whose errors are one line (:class:`UsageError`), not usage + message."""
+    """An argument parser whose errors are one line (:class:`UsageError`), not usage + message.
+
+    Examples
+    --------
+    >>> parser = Parser(prog="demo")
+    >>> _ = parser.add_argument("--t-end", type=float, dest="t_end")
+    >>> parser.parse_args(["--t-end", "2.5"]).t_end
+    2.5
+    >>> parser.parse_args(["--t-end", "soon"])
+    Traceback (most recent call last):
+    ...
+    hybridlab.cli._args.UsageError: argument --t-end: invalid float value: 'soon'
+    """
 
     def error(self, message: str) -> NoReturn:
         raise UsageError(message)

@@ -61,7 +61,17 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
-    """Add ``check`` to the subparsers ``sub`` of the main command line; its parser."""
+    """Add ``check`` to the subparsers ``sub`` of the main command line; its parser.
+
+    Examples
+    --------
+    >>> from hybridlab.cli._args import Parser
+    >>> parser = Parser(prog="hybridlab")
+    >>> _ = add_parser(parser.add_subparsers(dest="command", parser_class=Parser))
+    >>> args = parser.parse_args(["check", "models/thermostat.toml"])
+    >>> args.command, args.model, args.run.__name__
+    ('check', 'models/thermostat.toml', '_run')
+    """
     p: argparse.ArgumentParser = sub.add_parser("check",
                                                 help="validate a model file and summarise it")
     p.add_argument("model")

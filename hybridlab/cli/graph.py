@@ -33,7 +33,17 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
-    """Add ``graph`` to the subparsers ``sub`` of the main command line; its parser."""
+    """Add ``graph`` to the subparsers ``sub`` of the main command line; its parser.
+
+    Examples
+    --------
+    >>> from hybridlab.cli._args import Parser
+    >>> parser = Parser(prog="hybridlab")
+    >>> _ = add_parser(parser.add_subparsers(dest="command", parser_class=Parser))
+    >>> args = parser.parse_args(["graph", "models/thermostat.toml", "--check"])
+    >>> args.model, args.check, args.scenario, args.max_cycle_length
+    ('models/thermostat.toml', True, None, 8)
+    """
     p: argparse.ArgumentParser = sub.add_parser(
         "graph", help="print the mode graph in Graphviz DOT, or check it")
     p.add_argument("model")

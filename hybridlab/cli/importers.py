@@ -35,7 +35,19 @@ def _run_spaceex(args: argparse.Namespace) -> int:
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
-    """Add ``import spaceex`` to the subparsers ``sub`` of the main command line; its parser."""
+    """Add ``import spaceex`` to the subparsers ``sub`` of the main command line; its parser.
+
+    Examples
+    --------
+    >>> from hybridlab.cli._args import Parser
+    >>> parser = Parser(prog="hybridlab")
+    >>> _ = add_parser(parser.add_subparsers(dest="command", parser_class=Parser))
+    >>> args = parser.parse_args(["import", "spaceex", "models/spaceex/bouncing_ball.xml",
+    ...                           "--cfg", "models/spaceex/bouncing_ball.cfg", "-o", "ball.toml"])
+    >>> args.format, args.model, args.cfg, args.system, args.out
+    ('spaceex', 'models/spaceex/bouncing_ball.xml', 'models/spaceex/bouncing_ball.cfg', None,
+     'ball.toml')
+    """
     imp: argparse.ArgumentParser = sub.add_parser(
         "import", help="convert a model from another format to TOML")
     formats = imp.add_subparsers(dest="format", required=True,

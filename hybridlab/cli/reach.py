@@ -195,7 +195,18 @@ def _positive(text: str) -> int:
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
-    """Add ``reach`` to the subparsers ``sub`` of the main command line; its parser."""
+    """Add ``reach`` to the subparsers ``sub`` of the main command line; its parser.
+
+    Examples
+    --------
+    >>> from hybridlab.cli._args import Parser
+    >>> parser = Parser(prog="hybridlab")
+    >>> _ = add_parser(parser.add_subparsers(dest="command", parser_class=Parser))
+    >>> args = parser.parse_args(["reach", "models/bouncing_ball.toml", "--init", "h=9:10",
+    ...                           "--t-end", "3", "--safe", "h <= 11", "--split", "2"])
+    >>> args.init, args.t_end, args.safe, args.split, args.workers
+    (['h=9:10'], 3.0, ['h <= 11'], 2, 1)
+    """
     p: argparse.ArgumentParser = sub.add_parser(
         "reach", help="check safety specs from an initial set: SAFE (proved), "
                       "UNSAFE (counterexample) or UNKNOWN",

@@ -24,7 +24,17 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
-    """Add ``schema`` to the subparsers ``sub`` of the main command line; its parser."""
+    """Add ``schema`` to the subparsers ``sub`` of the main command line; its parser.
+
+    Examples
+    --------
+    >>> from hybridlab.cli._args import Parser
+    >>> parser = Parser(prog="hybridlab")
+    >>> _ = add_parser(parser.add_subparsers(dest="command", parser_class=Parser))
+    >>> args = parser.parse_args(["schema", "--out", "model.schema.json"])
+    >>> args.command, args.out
+    ('schema', 'model.schema.json')
+    """
     p: argparse.ArgumentParser = sub.add_parser("schema",
                                                 help="print the JSON schema of model files")
     p.add_argument("--out")

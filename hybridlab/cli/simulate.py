@@ -65,7 +65,18 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
-    """Add ``simulate`` to the subparsers ``sub`` of the main command line; its parser."""
+    """Add ``simulate`` to the subparsers ``sub`` of the main command line; its parser.
+
+    Examples
+    --------
+    >>> from hybridlab.cli._args import Parser
+    >>> parser = Parser(prog="hybridlab")
+    >>> _ = add_parser(parser.add_subparsers(dest="command", parser_class=Parser))
+    >>> args = parser.parse_args(["simulate", "models/bouncing_ball.toml", "--t-end", "2",
+    ...                           "--set", "e=0.5", "--backend", "reference"])
+    >>> args.model, args.t_end, args.set, args.backend, args.zeno
+    ('models/bouncing_ball.toml', 2.0, ['e=0.5'], 'reference', None)
+    """
     p: argparse.ArgumentParser = sub.add_parser("simulate", help="simulate a model")
     p.add_argument("model")
     p.add_argument("--scenario")

@@ -26,6 +26,16 @@ class Pivot:
         The distinct values of the two inputs (sorted), rows and columns of ``values``.
     values : numpy.ndarray
         Shape ``(len(index), len(columns))``; NaN where no run had that pair.
+
+    Examples
+    --------
+    >>> table = SweepResult(("run", "a", "b", "y"),
+    ...                     ((0, 1.0, 10.0, 5), (1, 2.0, 10.0, 6), (2, 2.0, 20.0, 7)))
+    >>> pivot = table.pivot("a", "b", "y")
+    >>> pivot.index.tolist(), pivot.columns.tolist()
+    ([1.0, 2.0], [10.0, 20.0])
+    >>> pivot.values.tolist()
+    [[5.0, nan], [6.0, 7.0]]
     """
 
     index: np.ndarray

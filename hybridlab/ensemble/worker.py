@@ -50,6 +50,23 @@ class Chunk:
     keep_results : bool
         Also return the :class:`SimulationResult` (without its compiled model,
         which the caller re-attaches).
+
+    Examples
+    --------
+    Two runs of the ball with their own restitution, on the reference engine; a chunk
+    is plain data, pickled to a worker process:
+
+    >>> import pickle
+    >>> import hybridlab
+    >>> from hybridlab.ensemble.observables import Count, Observable
+    >>> text = model_text(hybridlab.load_model("models/bouncing_ball.toml"))
+    >>> chunk = Chunk(text, model_key(text),
+    ...               ((0, {"t_end": 3.0, "params": {"e": 0.5}}),
+    ...                (1, {"t_end": 3.0, "params": {"e": 0.9}})),
+    ...               {"backend": "reference"}, (Observable("h_end", "h"),),
+    ...               (Count(("bounce",)),))
+    >>> pickle.loads(pickle.dumps(chunk)) == chunk, [index for index, _ in chunk.runs]
+    (True, [0, 1])
     """
 
     model: str
@@ -113,6 +130,22 @@ def run_chunk(chunk: Chunk) -> list[tuple[int, tuple[Any, ...], Any]]:
 
     Returns ``(index, row, result_or_None)`` triples; ``row`` is
     ``(status, t_final, jumps, *counts, *observables, error)``.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> from hybridlab.ensemble.observables import Count, Observable
+    >>> text = model_text(hybridlab.load_model("models/bouncing_ball.toml"))
+    >>> chunk = Chunk(text, model_key(text),
+    ...               ((0, {"t_end": 3.0, "params": {"e": 0.5}}),
+    ...                (1, {"t_end": 3.0, "params": {"f": 0.5}})),
+    ...               {"backend": "reference"}, (Observable("h_end", "h"),),
+    ...               (Count(("bounce",)),))
+    >>> (index, row, kept), (_, failed, _) = run_chunk(chunk)
+    >>> row[:4], round(row[4], 6), row[5], kept  # status, t_final, jumps, bounces; h_end
+    (('COMPLETED', 3.0, 2, 2), 0.403202, '', None)
+    >>> failed  # the misspelt parameter: a row saying why, not an exception
+    ('ERROR', nan, None, None, None, "ProblemError: params: unknown parameter 'f'; ...")
     """
     compiled = compiled_for(chunk.model, chunk.key)
     # (an Observable has exactly one of expression and function)

@@ -38,7 +38,15 @@ MODEL_VALUES = "model values"
 
 
 class Severity(StrEnum):
-    """How serious a finding is; ``error > warning > info``."""
+    """How serious a finding is; ``error > warning > info``.
+
+    Examples
+    --------
+    >>> Severity("warning"), Severity.WARNING.rank
+    (<Severity.WARNING: 'warning'>, 1)
+    >>> max([Severity.INFO, Severity.ERROR, Severity.WARNING], key=lambda s: s.rank)
+    <Severity.ERROR: 'error'>
+    """
 
     INFO = "info"
     WARNING = "warning"
@@ -69,6 +77,15 @@ class Finding:
         The transition, mode or cycle the finding is about.
     message : str
         One line naming the transition or mode.
+
+    Examples
+    --------
+    >>> finding = Finding(Severity.WARNING, "dead-mode", "b",
+    ...                   "mode 'b' is unreachable from the initial mode 'a'")
+    >>> print(finding)
+    warning: [dead-mode] mode 'b' is unreachable from the initial mode 'a'
+    >>> finding.severity.rank >= Severity.WARNING.rank  # what makes a report not ok
+    True
     """
 
     severity: Severity
@@ -89,6 +106,21 @@ class TransitionCheck:
     invariant?" (``None`` when the target has no invariant or the guard never
     holds). Verdicts combine the parameter sets: possible if possible for one,
     impossible if impossible for all.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> model = hybridlab.loads_model('''
+    ... name = "demo"
+    ... states = { x = 0.0 }
+    ... modes.a = { flow = { x = "1" }, invariant = "x <= 1" }
+    ... modes.b = { flow = { x = "-1" }, invariant = "x >= 5" }
+    ... transitions = [{ name = "go", source = "a", target = "b", guard = "x >= 1" }]
+    ... initial = { mode = "a" }
+    ... ''')
+    >>> check = check_mode_graph(model).transitions[0]  # fires at x = 1, but b needs x >= 5
+    >>> check.name, check.guard.value, check.reset.value, check.method
+    ('go', 'possible', 'impossible', 'lp')
     """
 
     name: str
@@ -108,6 +140,26 @@ class CycleCheck:
 
     ``parameter_set`` names the parameter set under which the verdict
     ``possible`` was proved (the model's values or a scenario).
+
+    Examples
+    --------
+    Two guards that hold together at ``x = 0`` can chatter without time passing:
+
+    >>> import hybridlab
+    >>> model = hybridlab.loads_model('''
+    ... name = "chatter"
+    ... states = { x = 0.0 }
+    ... modes.a = { flow = { x = "1" } }
+    ... modes.b = { flow = { x = "-1" } }
+    ... transitions = [
+    ...   { name = "up", source = "a", target = "b", guard = "x >= 0" },
+    ...   { name = "down", source = "b", target = "a", guard = "x <= 0" },
+    ... ]
+    ... initial = { mode = "a" }
+    ... ''')
+    >>> cycle = check_mode_graph(model).cycles[0]
+    >>> cycle.text, cycle.verdict.value, cycle.parameter_set
+    ('up -> down (a -> b -> a)', 'possible', 'model values')
     """
 
     transitions: tuple[str, ...]

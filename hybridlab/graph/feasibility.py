@@ -39,7 +39,16 @@ _INF = math.inf
 
 
 class Feasibility(StrEnum):
-    """The answer to "can these inequalities hold together?"."""
+    """The answer to "can these inequalities hold together?".
+
+    Examples
+    --------
+    >>> x = sp.Symbol("x", real=True)
+    >>> decide([x - 2, 1 - x]).verdict is Feasibility.IMPOSSIBLE  # x >= 2 and x <= 1
+    True
+    >>> Feasibility("possible"), Feasibility.UNDECIDED.value
+    (<Feasibility.POSSIBLE: 'possible'>, 'undecided')
+    """
 
     POSSIBLE = "possible"
     """Proved satisfiable (within ``tol``): a point was found or an LP found one."""

@@ -16,7 +16,25 @@ __all__ = ["BudgetSpent", "ParameterSpace", "minimise_residuals", "simplex"]
 
 
 class BudgetSpent(Exception):
-    """Raised inside the objective when the simulation budget is spent."""
+    """Raised inside the objective when the simulation budget is spent.
+
+    Examples
+    --------
+    An objective that allows three evaluations; the driver then reports the budget text:
+
+    >>> calls = []
+    >>> def residuals(theta):
+    ...     if len(calls) == 3:
+    ...         raise BudgetSpent
+    ...     calls.append(theta.copy())
+    ...     return theta - 2.0
+    >>> ok, message, jac, x = minimise_residuals(
+    ...     residuals, np.zeros(1), np.full(1, -5.0), np.full(1, 5.0), method="least_squares",
+    ...     max_evaluations=50, xtol=1e-10, diff_step=1e-6, ftol=1e-10,
+    ...     budget_text="stopped after 3 simulations")
+    >>> ok, message, len(calls)
+    (False, 'stopped after 3 simulations', 3)
+    """
 
 
 def simplex(x0: np.ndarray, step: float) -> np.ndarray:
@@ -82,6 +100,19 @@ class ParameterSpace:
     changes, positivity for free, and friction-like decays are closer to linear in it);
     any other as ``p / |p0|``. Both start at ``|theta| = 1`` so that relative finite
     difference steps have a sensible size.
+
+    Examples
+    --------
+    ``c`` keeps its sign (log coordinate); ``d`` may change sign (linear coordinate):
+
+    >>> space = ParameterSpace.around(["c", "d"], {"c": 17.0, "d": 250.0},
+    ...                               {"d": (-500.0, 500.0)})
+    >>> space.log.tolist(), space.theta0().tolist()
+    ([True, False], [1.0, 1.0])
+    >>> space.values(np.array([1.0 + np.log(2.0), 1.5])).round(9).tolist()
+    [34.0, 375.0]
+    >>> [b.tolist() for b in space.bounds()]
+    [[-inf, -2.0], [inf, 2.0]]
     """
 
     @classmethod

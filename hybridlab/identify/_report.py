@@ -43,6 +43,15 @@ def axes(ax: Any = None, nrows: int = 1) -> Any:
 
     matplotlib is imported only here, on demand, and through ``matplotlib.figure.Figure``
     rather than pyplot, so no global figure registry or backend is touched.
+
+    Examples
+    --------
+    The ``plot`` methods draw into the caller's axes when given some (any object here);
+    ``axes()`` and ``axes(nrows=2)`` make one or two axes on a new ``Figure``:
+
+    >>> ax = object()
+    >>> axes(ax) is ax
+    True
     """
     if ax is not None:
         return ax
@@ -55,7 +64,28 @@ def axes(ax: Any = None, nrows: int = 1) -> Any:
 
 
 def save_figure(ax: Any, path: str | Path) -> None:
-    """Save the figure that holds ``ax`` (an axes or an array of axes)."""
+    """Save the figure that holds ``ax`` (an axes or an array of axes).
+
+    The file's suffix gives the format (``png`` without one); the file is replaced
+    atomically.
+
+    Examples
+    --------
+    With a stand-in for a matplotlib figure (the two methods used):
+
+    >>> import pathlib, tempfile
+    >>> class Figure:
+    ...     def tight_layout(self):
+    ...         pass
+    ...     def savefig(self, fh, dpi, format):
+    ...         fh.write(f"<{format} at {dpi} dpi>".encode())
+    >>> class Axes:
+    ...     figure = Figure()
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "friction.svg"
+    >>> save_figure(Axes(), path)
+    >>> path.read_text()
+    '<svg at 120 dpi>'
+    """
     first = ax.flat[0] if hasattr(ax, "flat") else ax
     fig = first.figure
     fig.tight_layout()
@@ -64,7 +94,25 @@ def save_figure(ax: Any, path: str | Path) -> None:
 
 
 def write_json(path: str | Path, payload: Mapping[str, Any]) -> None:
-    """Write ``payload`` as indented JSON (non-finite floats become ``null``)."""
+    """Write ``payload`` as indented JSON (non-finite floats become ``null``).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "fit.json"
+    >>> write_json(path, {"parameters": {"c": 17.41}, "se": float("nan"), "n": (8, 0)})
+    >>> print(path.read_text())
+    {
+     "parameters": {
+      "c": 17.41
+     },
+     "se": null,
+     "n": [
+      8,
+      0
+     ]
+    }
+    """
 
     def clean(value: Any) -> Any:
         if isinstance(value, float):

@@ -250,6 +250,22 @@ def read_friction_csv(path: str | Path) -> FrictionData:
     """Read :class:`FrictionData` from a CSV file with columns ``velocity`` and ``force``.
 
     Lines starting with ``#`` are comments; other columns are ignored.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "friction.csv"
+    >>> _ = path.write_text("# steady-state runs\\n"
+    ...                     "velocity,force,run\\n-0.2,-68.8,1\\n-0.1,-43.1,2\\n0.1,43.1,3\\n")
+    >>> data = read_friction_csv(path)
+    >>> data.velocity.tolist(), data.force.tolist(), int(data.forward.sum())
+    ([-0.2, -0.1, 0.1], [-68.8, -43.1, 43.1], 1)
+    >>> _ = path.write_text("velocity,force\\n0.1,abc\\n")
+    >>> read_friction_csv(path)
+    Traceback (most recent call last):
+    ...
+    hybridlab.identify.errors.DataError: ...friction.csv: column 'force': is not a number at
+    data row 1 (got 'abc')
     """
     rows, source = _read_rows(path, ("velocity", "force"))
     return FrictionData(_floats(rows["velocity"], "velocity", source),
@@ -260,6 +276,16 @@ def read_frequency_csv(path: str | Path) -> FrequencyData:
     """Read :class:`FrequencyData` from a CSV file.
 
     Columns ``frequency_hz`` and ``magnitude_db`` are required, ``phase_deg`` is optional.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "bode.csv"
+    >>> _ = path.write_text("frequency_hz,magnitude_db,phase_deg\\n"
+    ...                     "10,-60,-178\\n100,-100,-179\\n")
+    >>> data = read_frequency_csv(path)
+    >>> data.magnitude_db.tolist(), data.phase_deg.tolist(), data.omega.round(1).tolist()
+    ([-60.0, -100.0], [-178.0, -179.0], [62.8, 628.3])
     """
     rows, source = _read_rows(path, ("frequency_hz", "magnitude_db"), ("phase_deg",))
     phase = _floats(rows["phase_deg"], "phase_deg", source) if "phase_deg" in rows else None
@@ -269,7 +295,19 @@ def read_frequency_csv(path: str | Path) -> FrequencyData:
 
 
 def read_events_csv(path: str | Path) -> SensorEvents:
-    """Read :class:`SensorEvents` from a CSV file with columns ``sensor``, ``t``, ``edge``."""
+    """Read :class:`SensorEvents` from a CSV file with columns ``sensor``, ``t``, ``edge``.
+
+    Examples
+    --------
+    Edges are sorted by time; the ``edge`` column is case-insensitive:
+
+    >>> import pathlib, tempfile
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "edges.csv"
+    >>> _ = path.write_text("sensor,t,edge\\n2,0.31,Rising\\n1,0.29,rising\\n1,0.35,falling\\n")
+    >>> events = read_events_csv(path)
+    >>> events.sensor, events.t.tolist(), events.edge
+    (('1', '2', '1'), [0.29, 0.31, 0.35], ('rising', 'rising', 'falling'))
+    """
     rows, source = _read_rows(path, ("sensor", "t", "edge"))
     return SensorEvents(tuple(rows["sensor"]), _floats(rows["t"], "t", source),
                         tuple(rows["edge"]), source=source)

@@ -49,6 +49,18 @@ class SlopeRegion:
         Slope of a free line fitted over the band (dB/decade).
     slope_se : float
         Its standard error.
+
+    Examples
+    --------
+    ``1 / (s (2 s + 60))`` breaks at 4.8 Hz; within 3 dB/dec of -40 from 12.6 Hz on:
+
+    >>> f = np.logspace(0, 3, 61)
+    >>> w = 2 * np.pi * f
+    >>> region = find_slope_region(FrequencyData(f, -20 * np.log10(w * np.hypot(2 * w, 60))))
+    >>> region.start, region.stop, round(region.f_low_hz, 1), round(region.decades, 2)
+    (22, 61, 12.6, 1.9)
+    >>> round(region.slope, 1), round(region.slope_se, 3)
+    (-39.8, 0.027)
     """
 
     start: int
@@ -86,6 +98,17 @@ class Eq4Fit:
         dB/dec; a flatter slope shows friction non-linearity).
     rms_db : float
         Residual root mean square of the fit (dB).
+
+    Examples
+    --------
+    Noise-free data of ``m = 3.5`` kg, ``d = 25`` N s/m: eq. (4) recovers both, but only
+    two points lie below the break frequency, the only ones where ``d`` matters:
+
+    >>> f = np.logspace(0, 3, 61)
+    >>> w = 2 * np.pi * f
+    >>> eq4 = fit_mass(FrequencyData(f, -20 * np.log10(w * np.hypot(3.5 * w, 25.0)))).eq4
+    >>> round(eq4.m, 3), round(eq4.d, 3), round(eq4.f_break_hz, 3), eq4.n_below_break
+    (3.5, 25.0, 1.137, 2)
     """
 
     m: float
@@ -135,6 +158,18 @@ class MassFit:
         The fit of eq. (4) from the lowest frequency to the top of the region.
     data : FrequencyData
         The input.
+
+    Examples
+    --------
+    >>> f = np.logspace(0, 3, 61)
+    >>> w = 2 * np.pi * f
+    >>> fit = fit_mass(FrequencyData(f, -20 * np.log10(w * np.hypot(3.5 * w, 25.0))))
+    >>> round(fit.m, 3), round(fit.region.f_low_hz, 2), round(fit.region.f_high_hz)
+    (3.526, 2.82, 1000)
+    >>> print(fit.table().splitlines()[2])
+    m (-40 dB/dec region)     3.5256      0.00788017   kg
+    >>> sorted(fit.as_dict())
+    ['eq4', 'method', 'parameters', 'phase_deg', 'region', 'residual_rms_db', 'uncertainties']
     """
 
     m: float

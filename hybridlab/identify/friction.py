@@ -52,6 +52,18 @@ class LineFit:
         Speed threshold: runs with ``|v| <= v_min`` were excluded (0 when none were).
     rms : float
         Residual root mean square (N).
+
+    Examples
+    --------
+    The two slowest runs per direction carry 8 N of extra (Stribeck) force and are
+    excluded by the automatic rule:
+
+    >>> v = np.array([0.01, 0.02, 0.05, 0.1, 0.2, 0.3])
+    >>> force = 17.4 + 257.0 * v + np.where(v <= 0.02, 8.0, 0.0)
+    >>> fit = fit_friction(FrictionData(np.r_[-v, v], np.r_[-force, force]))
+    >>> line = fit.forward
+    >>> round(line.c, 6), round(line.d, 6), line.n, line.n_excluded, line.v_min
+    (17.4, 257.0, 4, 2, 0.02)
     """
 
     c: float
@@ -87,6 +99,20 @@ class FrictionFit:
         ``F - (c sign(v) + d v)`` for every run.
     data : FrictionData
         The input.
+
+    Examples
+    --------
+    Runs with 20 N of Coulomb friction forwards but 15 N backwards:
+
+    >>> v = np.array([-0.3, -0.2, -0.1, -0.05, 0.05, 0.1, 0.2, 0.3])
+    >>> force = np.where(v > 0, 20.0, -15.0) + 250.0 * v
+    >>> fit = fit_friction(FrictionData(v, force), v_min=0.0)
+    >>> round(fit.c, 6), round(fit.d, 6), fit.asymmetric, round(fit.asymmetry_c, 3)
+    (17.5, 250.0, True, 0.286)
+    >>> fit.predict([-0.1, 0.1]).round(6).tolist()
+    [-42.5, 42.5]
+    >>> print(fit.table().splitlines()[-1])
+    friction is ASYMMETRIC: c differs by +28.6 %, d by +0.0 % (forward - backward)
     """
 
     c: float

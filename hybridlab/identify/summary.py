@@ -42,6 +42,15 @@ class Crossings:
         crossings and after the last one (``len(t) + 1`` values).
     t_start, t_end : float
         The sampled span.
+
+    Examples
+    --------
+    >>> t = np.linspace(0.0, 1.0, 1001)
+    >>> c = level_crossings(t, np.cos(2 * np.pi * t))
+    >>> len(c), c.select(-1).round(4).tolist(), c.select(+1).round(4).tolist()
+    (2, [0.25], [0.75])
+    >>> c.extrema.round(3).tolist(), (c.t_start, c.t_end)
+    ([1.0, 1.0, 1.0], (0.0, 1.0))
     """
 
     t: np.ndarray

@@ -75,6 +75,24 @@ class TargetFit:
         Parameter points simulated (each runs every experiment once).
     success : bool
     message : str
+
+    Examples
+    --------
+    The bouncing ball's restitution ``e`` from its first apex (6.4 m means ``e = 0.8``),
+    from 0.79 and with a budget of four parameter points:
+
+    >>> from hybridlab.identify.targets import Target
+    >>> apex = Target("value", 6.4, 0.01, transition="bounce", at="h + v**2/(2*g)",
+    ...               index=0, t_end=1.6)
+    >>> result = fit_targets("models/bouncing_ball.toml", [apex], fit=["e"],
+    ...                      initial_guess={"e": 0.79}, max_evaluations=4,
+    ...                      simulation_options={"backend": "reference"})
+    >>> round(result.parameters["e"], 3), result.n_evaluations, result.message
+    (0.8, 4, 'stopped after max_evaluations = 4 parameter points')
+    >>> round(result.simulated_initial[0], 3), round(result.simulated[0], 2)
+    (6.241, 6.4)
+    >>> round(float(result.residuals_initial[0]), 1), bool(abs(result.residuals[0]) < 1)
+    (-15.9, True)
     """
 
     parameters: dict[str, float]

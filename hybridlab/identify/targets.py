@@ -226,6 +226,34 @@ def read_targets(path: str | Path) -> tuple[Target, ...]:
     TargetError
         Unreadable file, unknown or missing keys, bad values; the message names the file
         and the key (``targets[1].tolerance``).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "targets.toml"
+    >>> _ = path.write_text('''
+    ... [[targets]]
+    ... kind = "value"
+    ... value = 6.4
+    ... tolerance = 0.01
+    ... transition = "bounce"
+    ... at = "h + v**2/(2*g)"
+    ... index = 0
+    ...
+    ... [[targets]]
+    ... kind = "count"
+    ... value = 5
+    ... tolerance = 1.0
+    ... transition = "bounce"
+    ... t_end = 8.0
+    ... ''')
+    >>> [t.label for t in read_targets(path)]
+    ['value of h + v**2/(2*g) at bounce [default]', 'count of bounce [default]']
+    >>> _ = path.write_text('[[targets]]\\nkind = "count"\\nvalue = 5\\n')
+    >>> read_targets(path)
+    Traceback (most recent call last):
+    ...
+    hybridlab.identify.errors.TargetError: ...targets.toml: targets[0]: missing key 'tolerance'
     """
     path = Path(path)
     source = str(path)

@@ -39,7 +39,21 @@ _TOKEN = re.compile(r"""
 
 
 class SpaceExSyntaxError(ExpressionError):
-    """A SpaceEx constraint text outside the supported language (message and token)."""
+    """A SpaceEx constraint text outside the supported language (message and token).
+
+    Examples
+    --------
+    >>> x = sp.Symbol("x", real=True)
+    >>> try:
+    ...     parse_conjunction("x <= 1 | x >= 2", {"x": "x"}, {"x": x})
+    ... except SpaceExSyntaxError as exc:
+    ...     print(exc, "|", exc.token)
+    disjunction '|' is not supported here (token '|') | |
+    >>> parse_conjunction("x <= y", {"x": "x"}, {"x": x})
+    Traceback (most recent call last):
+    ...
+    hybridlab.io._sxexpr.SpaceExSyntaxError: unknown variable (token 'y')
+    """
 
 
 @dataclass(frozen=True)
@@ -65,6 +79,17 @@ class Side:
     bare : str or None
         The raw SpaceEx name when the side is one identifier (a location name in
         ``loc(a) == fall``).
+
+    Examples
+    --------
+    >>> x, v = sp.symbols("x v", real=True)
+    >>> names, symbols = {"x": "x", "v": "v"}, {"x": x, "v": v}
+    >>> flow = parse_conjunction("x' == v^2", names, symbols, allow_prime=True)[0]
+    >>> flow.lhs.primed, flow.rhs.text, flow.rhs.expr
+    ('x', 'v**2', v**2)
+    >>> where = parse_conjunction("loc(ball) == fall", names, symbols, allow_loc=True)[0]
+    >>> where.lhs.loc, where.rhs.bare, where.rhs.expr
+    ('ball', 'fall', None)
     """
 
     text: str
@@ -76,7 +101,17 @@ class Side:
 
 @dataclass(frozen=True)
 class Atom:
-    """``lhs op rhs`` with ``op`` one of ``== <= >= < > :=`` (``=`` is read as ``==``)."""
+    """``lhs op rhs`` with ``op`` one of ``== <= >= < > :=`` (``=`` is read as ``==``).
+
+    Examples
+    --------
+    A chain ``a <= b <= c`` gives two atoms:
+
+    >>> x = sp.Symbol("x", real=True)
+    >>> atoms = parse_conjunction("0 <= x <= 1", {"x": "x"}, {"x": x})
+    >>> [(a.lhs.text, a.op, a.rhs.text) for a in atoms], atoms[1].text
+    ([('0', '<=', 'x'), ('x', '<=', '1')], 'x <= 1')
+    """
 
     lhs: Side
     op: str

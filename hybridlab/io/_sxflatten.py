@@ -33,6 +33,19 @@ class Instance:
         Formal real parameter -> global variable name, or the number it is fixed to.
     labels : dict of str to str
         Formal label -> global label.
+
+    Examples
+    --------
+    The SpaceEx bouncing ball: ``system`` binds one ``ball`` as ``ball_1`` and fixes its
+    constants ``c`` and ``g``:
+
+    >>> import pathlib
+    >>> from hybridlab.io._sxxml import read_components
+    >>> components = read_components(
+    ...     pathlib.Path("models/spaceex/bouncing_ball.xml").read_bytes(), "bouncing_ball.xml")
+    >>> (ball,) = flatten(components, "system", "bouncing_ball.xml")
+    >>> ball.name, ball.base.id, ball.vars, ball.labels
+    ('ball_1', 'ball', {'x': 'x', 'v': 'v', 'c': 0.75, 'g': 1.0}, {'hop': 'hop'})
     """
 
     name: str
@@ -43,7 +56,34 @@ class Instance:
 
 def flatten(components: dict[str, BaseComponent | NetworkComponent], system: str,
             source: str) -> list[Instance]:
-    """The base automata of component ``system`` with their parameters renamed globally."""
+    """The base automata of component ``system`` with their parameters renamed globally.
+
+    Examples
+    --------
+    Two tanks of one component, each with its own (local) level ``h``, a shared inflow
+    ``q`` and a fixed outflow rate ``k``:
+
+    >>> from hybridlab.io._sxxml import read_components
+    >>> doc = b'''<sspaceex>
+    ... <component id="tank">
+    ...   <param name="h" type="real"/><param name="q" type="real"/>
+    ...   <param name="k" type="real" dynamics="const"/>
+    ...   <location id="1" name="fill"><flow>h' == q - k*h</flow></location>
+    ... </component>
+    ... <component id="plant">
+    ...   <param name="q" type="real"/>
+    ...   <bind component="tank" as="t1"><map key="q">q</map><map key="k">0.1</map></bind>
+    ...   <bind component="tank" as="t2"><map key="q">q</map><map key="k">0.2</map></bind>
+    ... </component></sspaceex>'''
+    >>> for inst in flatten(read_components(doc, "tanks.xml"), "plant", "tanks.xml"):
+    ...     print(inst.name, inst.vars)
+    t1 {'h': 't1.h', 'q': 'q', 'k': 0.1}
+    t2 {'h': 't2.h', 'q': 'q', 'k': 0.2}
+    >>> flatten(read_components(doc, "tanks.xml"), "plants", "tanks.xml")
+    Traceback (most recent call last):
+    ...
+    hybridlab.io._sxxml.SpaceExError: tanks.xml: system: no component with this id (token 'plants')
+    """
     if system not in components:
         raise SpaceExError("no component with this id", key="system", token=system,
                            source=source)

@@ -27,11 +27,37 @@ class SpaceExError(ModelError):
     One line: ``FILE: ELEMENT-PATH: what is wrong (token 'X')``, e.g.
     ``ball.xml: component[@id='ball']/location[@name='fall']/flow: unknown variable
     (token 'vv')``.
+
+    Examples
+    --------
+    >>> doc = b'''<sspaceex><component id="c"><location id="1" name="on"/>
+    ...   <transition source="1" target="2"/></component></sspaceex>'''
+    >>> try:
+    ...     read_components(doc, "ball.xml")
+    ... except SpaceExError as exc:
+    ...     print(exc)
+    ...     print(exc.key, exc.token)
+    ball.xml: component[@id='c']/transition[1]/@target: no location has this id (token '2')
+    component[@id='c']/transition[1]/@target 2
     """
 
 
 @dataclass(frozen=True)
 class Param:
+    """A ``<param>`` of a component: a real variable or constant, or a synchronisation label.
+
+    Examples
+    --------
+    >>> import pathlib
+    >>> ball = read_components(pathlib.Path("models/spaceex/bouncing_ball.xml").read_bytes(),
+    ...                        "bouncing_ball.xml")
+    >>> ball["ball"].params["c"]
+    Param(name='c', kind='real', local=False, dynamics='const',
+          path="component[@id='ball']/param[@name='c']")
+    >>> [p.name for p in ball["ball"].params.values() if p.kind == "label"]
+    ['hop']
+    """
+
     name: str
     kind: str  # "real" or "label"
     local: bool
@@ -41,6 +67,18 @@ class Param:
 
 @dataclass(frozen=True)
 class Location:
+    """A ``<location>`` of a base component: its invariant and flow as SpaceEx text.
+
+    Examples
+    --------
+    >>> import pathlib
+    >>> ball = read_components(pathlib.Path("models/spaceex/bouncing_ball.xml").read_bytes(),
+    ...                        "bouncing_ball.xml")
+    >>> always = ball["ball"].locations["1"]
+    >>> always.name, always.invariant, always.flow
+    ('always', 'x >= 0', "x' == v &\\nv' == -g")
+    """
+
     id: str
     name: str
     invariant: str
@@ -50,6 +88,18 @@ class Location:
 
 @dataclass(frozen=True)
 class SxTransition:
+    """A ``<transition>`` between location ids, with its label, guard and assignment text.
+
+    Examples
+    --------
+    >>> import pathlib
+    >>> ball = read_components(pathlib.Path("models/spaceex/bouncing_ball.xml").read_bytes(),
+    ...                        "bouncing_ball.xml")
+    >>> hop = ball["ball"].transitions[0]
+    >>> hop.source, hop.target, hop.label, hop.guard, hop.assignment, hop.asap
+    ('1', '1', 'hop', 'x <= 0 & v < 0', "v' == -c*v", False)
+    """
+
     source: str
     target: str
     label: str
@@ -61,6 +111,20 @@ class SxTransition:
 
 @dataclass(frozen=True)
 class BaseComponent:
+    """A component with locations: one automaton (locations by id).
+
+    Examples
+    --------
+    >>> import pathlib
+    >>> ball = read_components(pathlib.Path("models/spaceex/bouncing_ball.xml").read_bytes(),
+    ...                        "bouncing_ball.xml")
+    >>> base = ball["ball"]
+    >>> base.id, list(base.params), [loc.name for loc in base.locations.values()]
+    ('ball', ['x', 'v', 'c', 'g', 'hop'], ['always'])
+    >>> len(base.transitions), base.path
+    (1, "component[@id='ball']")
+    """
+
     id: str
     params: dict[str, Param]
     locations: dict[str, Location]  # by id
@@ -70,6 +134,19 @@ class BaseComponent:
 
 @dataclass(frozen=True)
 class Bind:
+    """A ``<bind>`` of a network: an instance ``name`` of ``component``, its parameters
+    mapped to the network's parameters or to numbers (``maps``, as text).
+
+    Examples
+    --------
+    >>> import pathlib
+    >>> ball = read_components(pathlib.Path("models/spaceex/bouncing_ball.xml").read_bytes(),
+    ...                        "bouncing_ball.xml")
+    >>> bind = ball["system"].binds[0]
+    >>> bind.component, bind.name, bind.maps
+    ('ball', 'ball_1', {'x': 'x', 'v': 'v', 'c': '0.75', 'g': '1', 'hop': 'hop'})
+    """
+
     component: str
     name: str  # the ``as`` attribute
     maps: dict[str, str]
@@ -78,6 +155,18 @@ class Bind:
 
 @dataclass(frozen=True)
 class NetworkComponent:
+    """A component with binds: a network of instances of other components.
+
+    Examples
+    --------
+    >>> import pathlib
+    >>> ball = read_components(pathlib.Path("models/spaceex/bouncing_ball.xml").read_bytes(),
+    ...                        "bouncing_ball.xml")
+    >>> system = ball["system"]
+    >>> system.id, list(system.params), [b.name for b in system.binds]
+    ('system', ['x', 'v', 'hop'], ['ball_1'])
+    """
+
     id: str
     params: dict[str, Param]
     binds: list[Bind] = field(default_factory=list)

@@ -110,6 +110,18 @@ class SpaceExOptions:
         hybridlab names of ``output-variables``.
     settings : dict of str to str
         Every key of the ``.cfg`` as written.
+
+    Examples
+    --------
+    >>> p = load_spaceex("models/spaceex/bouncing_ball.xml",
+    ...                  "models/spaceex/bouncing_ball.cfg")
+    >>> opts = p.options
+    >>> opts.time_step, opts.max_jumps, opts.scenario, opts.output_variables
+    (0.05, 10, 'supp', ('x', 'v'))
+    >>> opts.settings["directions"]
+    'oct'
+    >>> SpaceExOptions().max_jumps is None  # no .cfg: unbounded
+    True
     """
 
     time_step: float | None = None
@@ -150,6 +162,17 @@ class SpaceExProblem:
     renamed : dict of str to str
         SpaceEx names that had to change (``t`` is hybridlab's time symbol, dots of
         hierarchical names become ``_``).
+
+    Examples
+    --------
+    >>> p = load_spaceex("models/spaceex/bouncing_ball.xml",
+    ...                  "models/spaceex/bouncing_ball.cfg")
+    >>> p.model.state_names, p.model.parameters["c"].value, p.initial_modes
+    (('x', 'v'), 0.75, ('always',))
+    >>> p.initial, p.t_end
+    ({'x': (10.0, 10.2), 'v': (0.0, 0.0)}, 20.0)
+    >>> p.forbidden[0].relations, p.params, p.inputs, p.renamed
+    (('x >= 10.25',), {}, {}, {})
     """
 
     model: Model

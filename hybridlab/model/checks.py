@@ -42,7 +42,30 @@ TIME = sp.Symbol("t", real=True)
 
 @dataclass(frozen=True)
 class SymbolicMechanics:
-    """The ``[mechanics]`` section in sympy form (indices are state positions)."""
+    """The ``[mechanics]`` section in sympy form (indices are state positions).
+
+    Examples
+    --------
+    >>> from hybridlab.model.loader import loads_model
+    >>> pendulum = loads_model('''
+    ... name = "pendulum"
+    ... parameters = { m = 1.0, l = 0.5, g = 9.81, b = 0.1 }
+    ... states = { phi = 0.1, omega = 0.0 }
+    ... modes.swing = {}
+    ... initial.mode = "swing"
+    ... [mechanics]
+    ... coordinates = ["phi"]
+    ... velocities = ["omega"]
+    ... kinetic = "m*l**2*omega**2/2"
+    ... potential = "-m*g*l*cos(phi)"
+    ... forces = { phi = "-b*omega" }
+    ... ''')
+    >>> mech = pendulum.symbolic.mechanics
+    >>> mech.coordinates, mech.velocities, mech.kinetic, mech.potential
+    ((0,), (1,), l**2*m*omega**2/2, -g*l*m*cos(phi))
+    >>> pendulum.symbolic.modes["swing"].flow  # derived from the energies when compiled
+    (None, None)
+    """
 
     coordinates: tuple[int, ...]
     velocities: tuple[int, ...]
@@ -57,6 +80,29 @@ class SymbolicMode:
     ``flow[i]`` is the derivative of state ``i``, or ``None`` where the
     ``[mechanics]`` section derives it; ``forces[k]`` is the generalised force
     on coordinate ``k`` in this mode.
+
+    Examples
+    --------
+    >>> from hybridlab.model.loader import load_model
+    >>> fall = load_model("models/bouncing_ball.toml").symbolic.modes["fall"]
+    >>> fall.name, fall.flow, [rel.text for rel in fall.invariants]
+    ('fall', (v, -g), ['h >= 0'])
+
+    A mode-local definition is substituted by :meth:`scoped`:
+
+    >>> from hybridlab.model.loader import loads_model
+    >>> sym = loads_model('''
+    ... name = "tank"
+    ... parameters = { q = 0.5 }
+    ... states = { h = 1.0 }
+    ... modes.fill = { flow = { h = "q - out" }, definitions = { out = "0.1*h" } }
+    ... modes.drain = { flow = { h = "-out" }, definitions = { out = "0.3*h" } }
+    ... initial.mode = "fill"
+    ... ''').symbolic
+    >>> sym.modes["fill"].flow, sym.modes["drain"].local
+    ((-0.1*h + q,), {'out': 0.3*h})
+    >>> sym.modes["drain"].scoped(2 * sym.namespace()["out"], sym.local_names)
+    0.6*h
     """
 
     name: str
@@ -78,7 +124,19 @@ class SymbolicMode:
 
 @dataclass(frozen=True)
 class SymbolicTransition:
-    """A transition in sympy form; ``reset[i]`` is the new value of state ``i``."""
+    """A transition in sympy form; ``reset[i]`` is the new value of state ``i``.
+
+    Examples
+    --------
+    >>> from hybridlab.model.loader import load_model
+    >>> bounce = load_model("models/bouncing_ball.toml").symbolic.transitions[0]
+    >>> bounce.name, bounce.source, bounce.target, bounce.reset, bounce.priority
+    ('bounce', 'fall', 'fall', (h, -e*v), 1)
+    >>> bounce.guard[0].text, bounce.guard[0].expr  # a guard holds where expr >= 0
+    ('h <= 0', -h)
+    >>> load_model("models/sampled_control.toml").symbolic.transitions[0].period
+    T
+    """
 
     index: int
     name: str
@@ -99,6 +157,17 @@ class SymbolicModel:
 
     Definitions are substituted everywhere, so every expression is over
     states, parameters and ``t`` only.
+
+    Examples
+    --------
+    >>> from hybridlab.model.loader import load_model
+    >>> sym = load_model("models/bouncing_ball.toml").symbolic
+    >>> sym.state_names, sym.parameters, sym.definitions
+    (('h', 'v'), (g, e), {'energy': g*h + 0.5*v**2})
+    >>> list(sym.modes), len(sym.transitions), sym.mechanics is None
+    (['fall'], 1, True)
+    >>> sym.namespace()["energy"].diff(sym.states[1])
+    1.0*v
     """
 
     state_names: tuple[str, ...]
@@ -331,6 +400,17 @@ def build_symbolic(model: Model) -> SymbolicModel:
     ------
     ModelError
         The first problem found, with key path and token.
+
+    Examples
+    --------
+    A :class:`~hybridlab.model.schema.Model` runs it when validated and keeps the result
+    as ``model.symbolic``:
+
+    >>> from hybridlab.model.loader import load_model
+    >>> ball = load_model("models/bouncing_ball.toml")
+    >>> sym = build_symbolic(ball)
+    >>> sym == ball.symbolic, sym.modes["fall"].flow
+    (True, (v, -g))
     """
     all_local = _declared_names(model)
     state_names = tuple(model.states)

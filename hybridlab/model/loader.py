@@ -135,6 +135,22 @@ def loads_model(text: str, *, source: str = "<string>") -> Model:
     """Parse TOML ``text`` into a :class:`Model`.
 
     Any text yields a model or a :class:`ModelError`, never another exception.
+
+    Examples
+    --------
+    >>> decay = loads_model('''
+    ... name = "decay"
+    ... parameters = { k = 0.5 }
+    ... states = { x = 1.0 }
+    ... modes.on = { flow = { x = "-k*x" } }
+    ... initial = { mode = "on" }
+    ... ''')
+    >>> decay.name, decay.state_names, decay.parameters["k"].value
+    ('decay', ('x',), 0.5)
+    >>> loads_model('name = "decay"\\nstates = { x = 1.0 }\\n', source="decay.toml")
+    Traceback (most recent call last):
+    ...
+    hybridlab.errors.ModelError: decay.toml: modes: required key is missing (token 'modes')
     """
     try:
         data = tomllib.loads(text)
@@ -161,6 +177,17 @@ def load_model(path: str | Path) -> Model:
     ------
     ModelError
         If the file cannot be read or is not a valid model.
+
+    Examples
+    --------
+    >>> ball = load_model("models/bouncing_ball.toml")
+    >>> ball.name, ball.state_names, ball.parameter_names, list(ball.scenarios)
+    ('bouncing_ball', ('h', 'v'), ('g', 'e'), ['default', 'zeno', 'benchmark'])
+    >>> load_model("models/no_such_model.toml")
+    Traceback (most recent call last):
+    ...
+    hybridlab.errors.ModelError: models/no_such_model.toml: cannot read file: No such file or
+    directory
     """
     path = Path(path)
     try:
@@ -257,7 +284,16 @@ def dumps_model(model: Model) -> str:
 
 
 def model_json_schema() -> dict[str, Any]:
-    """The JSON schema of model files, for editors (TOML language servers read it)."""
+    """The JSON schema of model files, for editors (TOML language servers read it).
+
+    Examples
+    --------
+    >>> schema = model_json_schema()
+    >>> schema["title"], schema["$schema"]
+    ('hybridlab model', 'https://json-schema.org/draft/2020-12/schema')
+    >>> schema["required"], sorted(schema["$defs"])[:3]
+    (['name', 'states', 'modes', 'initial'], ['Initial', 'Mechanics', 'Mode'])
+    """
     schema = Model.model_json_schema()
     schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
     schema["title"] = "hybridlab model"

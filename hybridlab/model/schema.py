@@ -240,7 +240,22 @@ class Transition(_Frozen):
 
 
 class Initial(_Frozen):
-    """The initial discrete mode (initial state values live with the states)."""
+    """The initial discrete mode (initial state values live with the states).
+
+    Examples
+    --------
+    >>> Initial(mode="fall")
+    Initial(mode='fall')
+
+    The mode must be one of the model's (checked when the model is validated):
+
+    >>> from hybridlab.model.loader import loads_model
+    >>> loads_model('name = "m"\\nstates = { x = 1.0 }\\nmodes.a.flow.x = "-x"\\n'
+    ...             'initial = { mode = "b" }\\n')
+    Traceback (most recent call last):
+    ...
+    hybridlab.errors.ModelError: <string>: initial.mode: initial mode is not a mode (token 'b')
+    """
 
     mode: str
 

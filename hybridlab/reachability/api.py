@@ -33,7 +33,15 @@ __all__ = ["ReachError", "default_step", "reach"]
 
 
 class ReachError(HybridlabError, ValueError):
-    """A reachability problem is ill-posed (bad initial set, bounds or names)."""
+    """A reachability problem is ill-posed (bad initial set, bounds or names).
+
+    Examples
+    --------
+    >>> reach("models/thermostat.toml", initial={"X": (19.0, 21.0)}, t_end=1.0)
+    Traceback (most recent call last):
+    ...
+    hybridlab.reachability.api.ReachError: initial: unknown state 'X'; expected one of: T
+    """
 
 
 def reach(

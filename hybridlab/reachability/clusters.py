@@ -78,7 +78,13 @@ def groups(pieces: list[tuple[np.ndarray, float, float]], clustering: str
 
 
 def hull(boxes: Sequence[np.ndarray]) -> np.ndarray:
-    """The interval hull ``(n, 2)`` of boxes ``(n, 2)``."""
+    """The interval hull ``(n, 2)`` of boxes ``(n, 2)``.
+
+    Examples
+    --------
+    >>> hull([np.array([[0.0, 1.0], [2.0, 3.0]]), np.array([[0.5, 2.0], [1.0, 2.5]])]).tolist()
+    [[0.0, 2.0], [1.0, 3.0]]
+    """
     stack = np.stack(boxes)
     return np.column_stack([stack[:, :, 0].min(axis=0), stack[:, :, 1].max(axis=0)])
 

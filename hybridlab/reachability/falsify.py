@@ -56,7 +56,17 @@ seconds, so that which engine runs which simulation is deterministic."""
 def run_point(problem: HybridProblem, x0: np.ndarray, p: np.ndarray,
               options: SimulationOptions | None = None) -> SimulationResult:
     """Simulate ``problem`` from ``x0`` with parameter vector ``p`` (deterministic), with
-    ``options`` in place of the problem's if given."""
+    ``options`` in place of the problem's if given.
+
+    Examples
+    --------
+    >>> pb = HybridProblem.build("models/bouncing_ball.toml", initial={"h": (5.0, 10.0)},
+    ...                          t_end=2.0)
+    >>> result = run_point(pb, np.array([10.0, 0.0]), pb.p0,
+    ...                    replace(pb.options, backend="reference"))
+    >>> result.status.name, len(result.jumps), round(result.final.state["h"], 6)
+    ('COMPLETED', 1, 4.805708)
+    """
     return _simulate(problem.compiled, problem.mode, problem.t_start, problem.t_end,
                      options or problem.options,
                      dict(zip(problem.compiled.state_names, map(float, x0), strict=True)),
@@ -115,6 +125,20 @@ class Counterexample:
     initial_mode : str
     t_start, t_end : float
     options : SimulationOptions
+
+    Examples
+    --------
+    >>> from hybridlab.reachability.spec import parse_spec
+    >>> pb = HybridProblem.build("models/thermostat.toml", initial={"T": (19.0, 21.0)},
+    ...                          t_end=1.0)
+    >>> cx = falsify(pb, [parse_spec("T <= 20.5", pb.compiled)]).counterexample
+    >>> cx.spec, cx.initial, cx.mode, round(cx.t, 6), round(cx.state["T"], 6)
+    ('T <= 20.5', {'T': 20.0}, 'heat', 0.253178, 20.5)
+    >>> round(cx.margin, 6), round(cx.t_worst, 6)  # T reaches 21.903252 at t_end
+    (-1.403252, 1.0)
+    >>> replayed = cx.replay()  # the same run again
+    >>> round(float(replayed(cx.t)[0]), 6)
+    20.5
     """
 
     spec: str
@@ -147,7 +171,18 @@ class Counterexample:
 
 @dataclass(frozen=True)
 class SpecMargin:
-    """The lowest margin of one spec along one run."""
+    """The lowest margin of one spec along one run.
+
+    ``margin`` is reached at ``t`` in ``mode``; ``violation_t``, ``violation_mode`` and
+    ``violation_state`` give the first violation (``None`` when the run has none).
+    See :func:`trajectory_margin`.
+
+    Examples
+    --------
+    >>> m = SpecMargin("v >= -15", 0.992859, 1.427843, "fall")  # lowest at the bounce
+    >>> m.margin > 0, m.violation_t is None  # the spec holds along the whole run
+    (True, True)
+    """
 
     spec: str
     margin: float
@@ -175,6 +210,21 @@ class Falsification:
     time_s : float
     most_jumps : int
         The most jumps in one simulated run.
+
+    Examples
+    --------
+    The centre and the two corners of the initial heights; the fastest impact, from
+    ``h = 10``, is at ``v = -14.007``:
+
+    >>> from hybridlab.reachability.spec import parse_spec
+    >>> pb = HybridProblem.build("models/bouncing_ball.toml", initial={"h": (5.0, 10.0)},
+    ...                          t_end=2.0)
+    >>> found = falsify(pb, [parse_spec("v >= -15", pb.compiled)],
+    ...                 FalsifyOptions(samples=0, local_evals=0))
+    >>> found.counterexample, found.runs, found.incomplete_runs, found.most_jumps
+    (None, 3, 0, 1)
+    >>> round(found.margins["v >= -15"], 6)
+    0.992859
     """
 
     counterexample: Counterexample | None
@@ -220,6 +270,23 @@ def trajectory_margin(result: SimulationResult, spec: Spec, fn: Mapping[str, Vec
     Returns
     -------
     SpecMargin
+
+    Examples
+    --------
+    The ball dropped from 10 m reaches ``v = -12`` at ``t = 12 / 9.81``, and
+    ``-sqrt(2 g 10) = -14.007`` at the bounce:
+
+    >>> from hybridlab.model.checks import TIME
+    >>> from hybridlab.reachability.spec import parse_spec
+    >>> from hybridlab.symbolic.functions import VectorFunction
+    >>> pb = HybridProblem.build("models/bouncing_ball.toml", t_end=2.0)
+    >>> spec, sym = parse_spec("v >= -12", pb.compiled), pb.compiled.symbolic
+    >>> fn = {mode: VectorFunction(rows, TIME, sym.states, sym.parameters, ())
+    ...       for mode, rows in spec.rows.items()}
+    >>> result = run_point(pb, pb.x0, pb.p0, replace(pb.options, backend="reference"))
+    >>> m = trajectory_margin(result, spec, fn, pb.p0)
+    >>> round(m.margin, 6), round(m.violation_t, 9), m.violation_mode
+    (-2.007141, 1.22324159, 'fall')
     """
     best = SpecMargin(spec.text, math.inf, math.nan, None)
     for seg in result.segments:

@@ -68,7 +68,18 @@ __all__ = ["Item", "run_analysis"]
 
 @dataclass(frozen=True, eq=False)
 class Item:
-    """A waiting-list entry: flow ``P`` in ``mode`` from a time in ``[t_lo, t_hi]``."""
+    """A waiting-list entry: flow ``P`` in ``mode`` from a time in ``[t_lo, t_hi]``.
+
+    ``parent`` is the id of the item whose flow jumped here (``None`` for the initial set).
+
+    Examples
+    --------
+    The initial item of an analysis of the thermostat from ``T`` in ``[19, 21]``:
+
+    >>> item = Item(0, None, "heat", Zonotope([20.0], [[1.0]]), 0.0, 0.0, 0)
+    >>> item.mode, item.P.center.tolist(), (item.t_lo, item.t_hi), item.jumps, item.parent
+    ('heat', [20.0], (0.0, 0.0), 0, None)
+    """
 
     id: int
     parent: int | None
@@ -556,7 +567,26 @@ def run_analysis(system: System, options: ReachOptions, mode: str, P0: Zonotope,
                  t_start: float, t_end: float, p: np.ndarray,
                  stop_unproved: Sequence[Spec] = ()) -> ReachResult:
     """Run the analysis from one initial item (used by :func:`hybridlab.reach`); it ends,
-    incomplete, at the first set that does not prove one of ``stop_unproved``."""
+    incomplete, at the first set that does not prove one of ``stop_unproved``.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> from hybridlab.reachability.system import build_system
+    >>> compiled = hybridlab.compile_model(hybridlab.load_model("models/thermostat.toml"))
+    >>> p = compiled.parameter_vector()
+    >>> system = build_system(compiled, p, {}, {})
+    >>> result = run_analysis(system, ReachOptions(step=0.1), "heat", Zonotope([20.0], [[1.0]]),
+    ...                       0.0, 1.0, p)
+    >>> result.complete, sorted(result.reachable_modes), len(result.sets)
+    (True, ['cool', 'heat'], 16)
+    >>> cut = run_analysis(system, ReachOptions(step=0.1, max_jumps=0), "heat",
+    ...                    Zonotope([20.0], [[1.0]]), 0.0, 1.0, p)
+    >>> cut.complete
+    False
+    >>> print(cut.incomplete_reasons[0])
+    max_jumps=0 reached: a branch entering mode 'cool' at t in [0.5, 1] was not followed
+    """
     started = _time.perf_counter()
     analysis = _Analysis(system, options, t_start, t_end, p, stop_unproved)
     analysis.push(None, mode, P0, t_start, t_start, 0)

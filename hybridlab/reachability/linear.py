@@ -51,7 +51,17 @@ __all__ = ["StepError", "Propagator", "TaylorBlock", "affine_step", "interval_ma
 
 
 class StepError(HybridlabError, ArithmeticError):
-    """A reachability step cannot be enclosed (the set or the remainder diverges)."""
+    """A reachability step cannot be enclosed (the set or the remainder diverges).
+
+    Examples
+    --------
+    >>> TaylorBlock.build(np.array([[-100.0]]), 1.0, 10)
+    Traceback (most recent call last):
+    ...
+    hybridlab.reachability.linear.StepError: time step 1 too large ... |A| = 100; lower `step`
+    >>> issubclass(StepError, ArithmeticError)
+    True
+    """
 
 
 def _abs_z(Z: Zonotope) -> np.ndarray:
@@ -361,7 +371,20 @@ def _homogeneous(P: Zonotope) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def interval_map(phi: np.ndarray, phi_rad: np.ndarray, P: Zonotope
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(center, generators, box)`` in homogeneous coordinates containing ``M x_h`` for
-    every ``M`` within ``phi +- phi_rad`` and every ``x`` of ``P`` (``x_h = (x, 1)``)."""
+    every ``M`` within ``phi +- phi_rad`` and every ``x`` of ``P`` (``x_h = (x, 1)``).
+
+    Examples
+    --------
+    ``x' = -x`` over a step of 0.1 from ``[0.5, 1.5]``: ``e^-0.1`` times the set (then the
+    homogeneous coordinate 1), with a box of the order of the rounding:
+
+    >>> prop = Propagator.build(np.array([[-1.0]]), np.array([0.0]), 0.1, 10)
+    >>> center, gens, box = interval_map(prop.phi, prop.phi_rad, Zonotope([1.0], [[0.5]]))
+    >>> center.round(9).tolist(), gens.round(9).tolist()
+    ([0.904837418, 1.0], [[0.452418709], [0.0]])
+    >>> bool(np.all(box < 1e-14))
+    True
+    """
     ch, Gh, absP = _homogeneous(P)
     return phi @ ch, phi @ Gh, up(phi_rad @ absP + product_error(np.abs(phi), absP))
 
@@ -372,6 +395,12 @@ def assemble(center: np.ndarray, gens: np.ndarray, box: np.ndarray, bloat: float
 
     Each entry of ``center`` and ``gens`` went through at most four roundings (a
     product already bounded, then halvings and sums), covered by ``4 u`` of its size.
+
+    Examples
+    --------
+    >>> Z = assemble(np.array([1.0]), np.array([[0.5]]), np.array([0.01]))
+    >>> Z.generators.shape, Z.bounds().round(9).tolist()
+    ((1, 2), [[0.49, 1.51]])
     """
     size = up(np.abs(center) + np.sum(np.abs(gens), axis=1) + box)
     extra = up(box + (4 * U + bloat) * size)

@@ -88,6 +88,19 @@ class Basis:
         Entrywise upper bound of ``|B - B_D|`` for the exact ``B``.
     eps : float
         Upper bound of ``|B - B_D|_inf`` for the exact ``B``.
+
+    Examples
+    --------
+    A mode with one fast eigenvalue (-2000) and two slow ones (-1 and the homogeneous 0),
+    for steps of 0.1:
+
+    >>> Ah = np.array([[-2000.0, 0.0, 0.0], [1999.0, -1.0, 1.0], [0.0, 0.0, 0.0]])
+    >>> basis = block_basis(Ah, 0.1)
+    >>> basis.blocks, np.diag(basis.B).tolist()
+    ([slice(0, 2, None), slice(2, 3, None)], [-1.0, 0.0, -2000.0])
+    >>> x = np.array([1.0, 2.0, 1.0])
+    >>> bool(np.allclose(basis.from_modal(basis.to_modal(x)), x)), bool(basis.eps < 1e-9)
+    (True, True)
     """
 
     S: np.ndarray
@@ -137,6 +150,17 @@ class FastBlock:
     ``1 x 1`` block (``spin = 0``), or a complex pair ``[[a, b], [-b, a]]`` that
     turns little in a step (``e^{at}`` is monotone; ``spin`` bounds how far the
     rotation takes the path from the chord, :func:`_chord_deviation`).
+
+    Examples
+    --------
+    ``e^{-1000 t}`` over a step of 0.1: ``F`` lies in ``[-0.944, 0]`` and the input gain
+    is ``int_0^0.1 e^{-1000 s} ds = 1e-3``:
+
+    >>> blk = fast_block(np.array([[-1000.0]]), 0.1)
+    >>> blk.monotone, blk.sup_norm, round(float(blk.F_mid[0, 0] - blk.F_rad[0, 0]), 4)
+    (True, 1.0, -0.9439)
+    >>> round(float(blk.gain[0, 0]), 12)
+    0.001
     """
 
     F_mid: np.ndarray
@@ -160,6 +184,15 @@ def block_basis(Ah: np.ndarray, r: float, stiff: bool = True) -> Basis | None:
     rounds nothing. The slow block of a stiff basis is balanced too. With
     ``stiff=False`` only the balancing is tried. ``None`` also when the basis
     cannot be certified (``S`` numerically singular).
+
+    Examples
+    --------
+    >>> Ah = np.array([[-2000.0, 0.0, 0.0], [1999.0, -1.0, 1.0], [0.0, 0.0, 0.0]])
+    >>> basis = block_basis(Ah, 0.1)  # stiff: a slow block of 2, a fast one of 1
+    >>> [b.stop - b.start for b in basis.blocks], basis.n_slow
+    ([2, 1], 2)
+    >>> block_basis(np.array([[-1.0, 0.0], [0.0, 0.0]]), 0.1) is None  # mild: state axes
+    True
     """
     lam = np.linalg.eigvals(Ah)
     if not np.all(np.isfinite(lam)):

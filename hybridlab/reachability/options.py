@@ -162,6 +162,18 @@ class FalsifyOptions:
         Local optimisations per spec, from its best samples.
     seed : int
         Seed of the ``numpy.random.Generator`` (the search is deterministic).
+
+    Examples
+    --------
+    Only the centre and the corners of the uncertain box, no local search:
+
+    >>> quick = FalsifyOptions(samples=0, local_evals=0)
+    >>> quick.max_corner_dims, quick.seed
+    (5, 0)
+    >>> FalsifyOptions(samples=-1)
+    Traceback (most recent call last):
+    ...
+    ValueError: FalsifyOptions.samples must be a non-negative integer (got -1)
     """
 
     samples: int = 16

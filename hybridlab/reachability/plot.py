@@ -65,6 +65,19 @@ def plot_reach(result: ReachResult, x: str, y: str, ax: Any = None,
     Returns
     -------
     matplotlib Axes
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")  # no window
+    >>> import hybridlab
+    >>> result = hybridlab.reach("models/thermostat.toml", initial={"T": (19.0, 21.0)},
+    ...                          t_end=1.0, step=0.1)
+    >>> ax = plot_reach(result, "t", "T")  # one rectangle per set: its time and T bounds
+    >>> ax.get_xlabel(), ax.get_ylabel(), len(ax.collections[0].get_paths())
+    ('t', 'T', 16)
+    >>> import matplotlib.pyplot as plt
+    >>> plt.close(ax.figure)
     """
     import matplotlib.pyplot as plt
     from matplotlib.collections import PolyCollection

@@ -84,6 +84,17 @@ class ReachSet:
         Jumps along the branch that led here.
     set : Zonotope
         Over the model's states, in ``compiled.state_names`` order.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> result = hybridlab.reach("models/thermostat.toml", initial={"T": (19.0, 21.0)},
+    ...                          t_end=1.0, step=0.1)
+    >>> first = result.sets[0]  # heating over the first step (its times widened by an ulp)
+    >>> first.mode, first.jumps, round(first.t[1], 9), first.bounds().round(4).tolist()
+    ('heat', 0, 0.1, [[19.0, 21.1993]])
+    >>> first.contains([[20.0], [21.5]]).tolist()
+    [True, False]
     """
 
     mode: str
@@ -196,6 +207,22 @@ class ReachResult:
         ``(t_start, t_end)``.
     options : ReachOptions
         The settings used (with the step filled in).
+
+    Examples
+    --------
+    The thermostat from ``T`` in ``[19, 21]``: heating until ``T = 22``, then cooling.
+
+    >>> import hybridlab
+    >>> result = hybridlab.reach("models/thermostat.toml", initial={"T": (19.0, 21.0)},
+    ...                          t_end=1.0, step=0.1)
+    >>> result.complete, sorted(result.reachable_modes), len(result.sets)
+    (True, ['cool', 'heat'], 16)
+    >>> [round(b, 4) for b in result.bounds["T"]]
+    [19.0, 22.0]
+    >>> [s.mode for s in result.sets_at(0.55)]
+    ['heat', 'cool']
+    >>> result.covers([0.5, 0.5], [[20.0], [23.0]]).tolist()  # simulated samples (t, T)
+    [True, False]
     """
 
     sets: tuple[ReachSet, ...]

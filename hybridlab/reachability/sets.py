@@ -27,7 +27,17 @@ __all__ = ["SetError", "Box", "Zonotope", "Polytope", "as_zonotope"]
 
 
 class SetError(HybridlabError, ValueError):
-    """A set is malformed (shapes, NaN, lo > hi) or an LP on it failed."""
+    """A set is malformed (shapes, NaN, lo > hi) or an LP on it failed.
+
+    Examples
+    --------
+    >>> Box([1.0, 0.0], [0.0, 1.0])
+    Traceback (most recent call last):
+    ...
+    hybridlab.reachability.sets.SetError: lo must not exceed hi (got lo[0]=1.0 > hi[0]=0.0)
+    >>> issubclass(SetError, ValueError)
+    True
+    """
 
 
 def _vector(x: ArrayLike, name: str) -> np.ndarray:

@@ -88,6 +88,16 @@ class Rows:
 
     Linear rows are bounded exactly through support functions, the others by
     interval arithmetic over the set's interval hull.
+
+    Examples
+    --------
+    >>> from hybridlab.reachability.sets import Zonotope
+    >>> x, y = sp.symbols("x y", real=True)
+    >>> rows = Rows([x - 1, x * y], [x, y])
+    >>> rows.linear.tolist(), rows.a[0].tolist(), float(rows.b[0])
+    ([True, False], [1.0, 0.0], -1.0)
+    >>> rows.range(Zonotope([2.0, 1.0], [[0.5, 0.0], [0.0, 0.5]])).round(9).tolist()
+    [[0.5, 1.5], [0.75, 3.75]]
     """
 
     def __init__(self, exprs: Sequence[sp.Expr], zsyms: Sequence[sp.Symbol],
@@ -135,7 +145,24 @@ class Rows:
 
 @dataclass(frozen=True, eq=False)
 class ResetMap:
-    """A transition's reset on the extended state: ``z+ = M z + r`` when affine."""
+    """A transition's reset on the extended state: ``z+ = M z + r`` when affine.
+
+    Examples
+    --------
+    The ball's bounce ``v+ = -e v`` is affine for a known ``e``; with ``e`` an uncertain
+    constant (an extended state, which the reset keeps) it is not:
+
+    >>> import hybridlab
+    >>> c = hybridlab.compile_model(hybridlab.load_model("models/bouncing_ball.toml"))
+    >>> bounce = build_system(c, c.parameter_vector(), {}, {}).resets[0]
+    >>> bounce.matrix.tolist(), bounce.offset.tolist()
+    ([[1.0, 0.0], [0.0, -0.8]], [0.0, 0.0])
+    >>> uncertain = build_system(c, c.parameter_vector(), {"e": (0.7, 0.9)}, {}).resets[0]
+    >>> uncertain.exprs, uncertain.matrix is None
+    ((h, -e*v, e), True)
+    >>> uncertain.value(np.array([0.0, -10.0, 0.8])).tolist()
+    [0.0, 8.0, 0.8]
+    """
 
     exprs: tuple[sp.Expr, ...]
     zsyms: tuple[sp.Symbol, ...]
@@ -161,7 +188,21 @@ class ResetMap:
 
 @dataclass(frozen=True, eq=False)
 class ModeSystem:
-    """The flow of one mode over ``w = (z, u)``: value, Jacobians, Hessian enclosure."""
+    """The flow of one mode over ``w = (z, u)``: value, Jacobians, Hessian enclosure.
+
+    Examples
+    --------
+    The thermostat heating, ``T' = -a (T - T_heat)`` with ``a = 0.1``, ``T_heat = 40``:
+
+    >>> import hybridlab
+    >>> c = hybridlab.compile_model(hybridlab.load_model("models/thermostat.toml"))
+    >>> heat = build_system(c, c.parameter_vector(), {}, {}).modes["heat"]
+    >>> z, u = np.array([20.0]), np.array([])
+    >>> heat.value(z, u).tolist(), heat.jacobian(z, u).tolist()
+    ([2.0], [[-0.1]])
+    >>> heat.affine, heat.hessian is None, heat.invariants.texts
+    (True, True, ('T <= T_high',))
+    """
 
     name: str
     flow: tuple[sp.Expr, ...]
@@ -216,7 +257,21 @@ class ModeSystem:
 
 @dataclass(frozen=True, eq=False)
 class System:
-    """Everything :func:`hybridlab.reach` needs from the model, for one set of parameters."""
+    """Everything :func:`hybridlab.reach` needs from the model, for one set of parameters.
+
+    Examples
+    --------
+    The relay with a bounded disturbance amplitude: ``t`` is an extended state (the flow
+    reads it), and each input box holds ``w0`` and the sign of ``x`` (free in ``[-1, 1]``):
+
+    >>> import hybridlab
+    >>> c = hybridlab.compile_model(hybridlab.load_model("models/relay_sliding.toml"))
+    >>> system = build_system(c, c.parameter_vector(), {}, {"w0": (-0.5, 0.5)})
+    >>> system.znames, system.time_index, system.modes["relay"].usyms
+    (('x', 't'), 1, (w0, _rsigma0))
+    >>> [bound.tolist() for bound in system.input_box("relay")]
+    [[-0.5, -1.0], [0.5, 1.0]]
+    """
 
     compiled: CompiledModel
     zsyms: tuple[sp.Symbol, ...]

@@ -45,7 +45,15 @@ __all__ = ["VerdictStatus", "SpecBound", "Verdict", "check", "bound_specs"]
 
 
 class VerdictStatus(enum.Enum):
-    """The outcome of a safety check; each value says what it means."""
+    """The outcome of a safety check; each value says what it means.
+
+    Examples
+    --------
+    >>> [status.name for status in VerdictStatus]
+    ['SAFE', 'UNSAFE', 'UNKNOWN']
+    >>> VerdictStatus.UNKNOWN.value
+    'neither proved nor refuted: the reason says what was missing'
+    """
 
     SAFE = ("proved: every state reachable from the initial set satisfies every spec up to "
             "t_end")
@@ -72,6 +80,14 @@ class SpecBound:
         Jumps before that set.
     sets : int
         Reach sets the spec was bounded over.
+
+    Examples
+    --------
+    >>> bound = SpecBound("T <= 25", 3.0, "cool", (0.5, 1.0), 1, 16)
+    >>> bound.where()
+    "in mode 'cool' for t in [0.5, 1]"
+    >>> bound.as_dict()["t"], SpecBound("T <= 25", float("inf")).as_dict()["lower"]
+    ([0.5, 1.0], None)
     """
 
     spec: str
@@ -122,6 +138,15 @@ class Verdict:
     reach : ReachResult or None
     falsification : Falsification or None
     time_s : float
+
+    Examples
+    --------
+    >>> v = check("models/thermostat.toml", initial={"T": (19.0, 21.0)}, t_end=1.0,
+    ...           safe="T <= 25", step=0.1)
+    >>> v.safe, round(v.margin, 6), v.where.where()
+    (True, 2.999998, "in mode 'cool' for t in [0.5, 1]")
+    >>> v.counterexample is None, sorted(v.as_dict()["reachable_modes"])
+    (True, ['cool', 'heat'])
     """
 
     status: VerdictStatus
@@ -170,6 +195,18 @@ def bound_specs(specs: Iterable[Spec], reach_result: Any) -> tuple[SpecBound, ..
 
     Each row is bounded with ``ReachSet.bound``; a conjunction's margin bound is
     the least row bound, a region's the best single separating row.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> from hybridlab.reachability.spec import as_specs
+    >>> compiled = hybridlab.compile_model(hybridlab.load_model("models/thermostat.toml"))
+    >>> result = hybridlab.reach(compiled, initial={"T": (19.0, 21.0)}, t_end=1.0, step=0.1)
+    >>> upper, lower = bound_specs(as_specs(["T <= 25", "heat: T >= 18"], compiled), result)
+    >>> round(upper.lower, 6), upper.mode, upper.sets  # T reaches at most 22
+    (2.999998, 'cool', 16)
+    >>> round(lower.lower, 4), lower.mode, lower.sets  # only the 11 heating sets
+    (1.0, 'heat', 11)
     """
     out = []
     for spec in specs:
@@ -245,6 +282,18 @@ def check(
     Returns
     -------
     Verdict
+
+    Examples
+    --------
+    >>> v = check("models/thermostat.toml", initial={"T": (19.0, 21.0)}, t_end=1.0,
+    ...           safe="T <= 25", step=0.1)
+    >>> print(v.status.name, v.reason)
+    SAFE every spec holds on all 16 reach sets up to t_end=1; smallest proven margin 3
+    (spec 'T <= 25' in mode 'cool' for t in [0.5, 1])
+    >>> v = check("models/thermostat.toml", initial={"T": (19.0, 21.0)}, t_end=1.0,
+    ...           safe="T <= 20.5", step=0.1)
+    >>> v.status.name, v.counterexample.initial, round(v.counterexample.t, 6)
+    ('UNSAFE', {'T': 20.0}, 0.253178)
     """
     check_executor(executor)
     (options or ReachOptions()).updated(**reach_overrides)  # a misspelt option fails first

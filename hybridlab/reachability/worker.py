@@ -46,6 +46,21 @@ class Piece:
     t_start, t_end : float
     stop_unproved : tuple of Spec
         Specs whose first unproved set ends the analysis (see :func:`hybridlab.reach`).
+
+    Examples
+    --------
+    A piece is plain data: it pickles, for a worker process (see :func:`run_piece`).
+
+    >>> import pickle
+    >>> import hybridlab
+    >>> from hybridlab.simulation.executors import model_key, model_text
+    >>> model = hybridlab.load_model("models/thermostat.toml")
+    >>> text, compiled = model_text(model), hybridlab.compile_model(model)
+    >>> piece = Piece(text, model_key(text), compiled.parameter_vector(), {}, {},
+    ...               ReachOptions(step=0.1), "heat", Zonotope([20.0], [[1.0]]), 0.0, 1.0)
+    >>> sent = pickle.loads(pickle.dumps(piece))
+    >>> sent.key == piece.key, sent.mode, sent.initial.center.tolist(), sent.t_end
+    (True, 'heat', [20.0], 1.0)
     """
 
     model: str

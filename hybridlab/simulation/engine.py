@@ -730,5 +730,18 @@ def deadline_of(options: SimulationOptions) -> int | None:
 def run(compiled: CompiledModel, *, t0: float, x0: np.ndarray, mode: str, t_end: float,
         p: np.ndarray, options: SimulationOptions, deadline: int | None = None
         ) -> SimulationResult:
-    """Simulate ``compiled`` from ``(t0, x0, mode)`` to ``t_end`` (see ``hybridlab.simulate``)."""
+    """Simulate ``compiled`` from ``(t0, x0, mode)`` to ``t_end`` (see ``hybridlab.simulate``).
+
+    The reference engine itself: everything is given explicitly, nothing is checked or
+    taken from a scenario (:class:`~hybridlab.HybridProblem` does that).
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> compiled = hybridlab.compile_model(hybridlab.load_model("models/bouncing_ball.toml"))
+    >>> result = run(compiled, t0=0.0, x0=compiled.state_vector(), mode="fall", t_end=3.0,
+    ...              p=compiled.parameter_vector(), options=SimulationOptions())
+    >>> result.status.name, result.final.j, round(result.events[0].t, 6)
+    ('COMPLETED', 1, 1.427843)
+    """
     return _Run(compiled, p, options, t_end, deadline).run(t0, x0, mode)

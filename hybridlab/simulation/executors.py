@@ -32,7 +32,17 @@ SERIAL_BELOW = 4
 
 
 class ExecutorError(HybridlabError, ValueError):
-    """An ``executor`` argument that names no way to run tasks (one line)."""
+    """An ``executor`` argument that names no way to run tasks (one line).
+
+    Examples
+    --------
+    >>> place("gpu", 3)
+    Traceback (most recent call last):
+    ...
+    hybridlab.simulation.executors.ExecutorError: executor: expected an Executor, ... (got 'gpu')
+    >>> issubclass(ExecutorError, ValueError)
+    True
+    """
 
 
 _EXPECTED = "expected an Executor, a Client, an int or one of 'serial', 'threads', 'processes'"
@@ -53,6 +63,16 @@ class Placement:
     workers : int
         Parallel workers (for default chunk sizes).
     label : str
+        What ran the job (``serial``, ``threads(2)``, ...), as a sweep reports it.
+
+    Examples
+    --------
+    >>> placement = place("threads", 1)
+    >>> placement.label, placement.owned, placement.in_process, placement.workers
+    ('threads(1)', True, True, 1)
+    >>> placement.shutdown()  # created by place(), so the job shuts it down
+    >>> place(1, 5)  # one worker: serial, in this process
+    Placement(executor=None, owned=False, in_process=True, workers=1, label='serial')
     """
 
     executor: cf.Executor | None
@@ -162,7 +182,18 @@ _cache_lock = threading.Lock()
 
 
 def model_text(model: Model) -> str:
-    """The canonical JSON text of a model, what workers receive."""
+    """The canonical JSON text of a model, what workers receive.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> ball = hybridlab.load_model("models/bouncing_ball.toml")
+    >>> text = model_text(ball)
+    >>> text[:24]
+    '{"name":"bouncing_ball",'
+    >>> hybridlab.Model.model_validate_json(text) == ball  # what a worker rebuilds
+    True
+    """
     return model.model_dump_json()
 
 
@@ -188,6 +219,14 @@ def compiled_for(text: str, key: str | None = None, compiled: CompiledModel | No
     (when given) is compiled, which reuses the compiled form it may already
     carry (and whatever a backend prepared for it, which forked workers then
     inherit); else the text is parsed and compiled.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> text = model_text(hybridlab.load_model("models/bouncing_ball.toml"))
+    >>> compiled = compiled_for(text)
+    >>> compiled.model.name, compiled_for(text) is compiled  # the second call is a cache hit
+    ('bouncing_ball', True)
     """
     key = key or model_key(text)
     with _cache_lock:

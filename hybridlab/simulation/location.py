@@ -31,7 +31,19 @@ ValueFn = Callable[[float], float]
 
 @dataclass(frozen=True)
 class Trigger:
-    """A monitor reaching zero at time ``t`` (``grazing``: tangentially)."""
+    """A monitor reaching zero at time ``t`` (``grazing``: tangentially).
+
+    Examples
+    --------
+    The guard ``1 - t >= 0`` of a clock, sampled over one step and located:
+
+    >>> batch = lambda tau: (np.atleast_2d(1.0 - tau), np.atleast_2d(-np.ones_like(tau)))
+    >>> tau, phi, dphi, _ = sample_step(0.0, 2.0, batch, 4, 3, 1e-12)
+    >>> trigger, armed = first_trigger(0, tau, phi[0], dphi[0], True, lambda t: 1.0 - t,
+    ...                                1e-12, 1e-12)
+    >>> trigger
+    Trigger(monitor=0, t=1.0, grazing=False)
+    """
 
     monitor: int
     t: float
@@ -116,6 +128,17 @@ def sample_step(t0: float, t1: float, batch: BatchFn, samples: int, max_refine: 
         Sorted sample times and monitor values and slopes there.
     refinements : int
         How many intervals were split.
+
+    Examples
+    --------
+    A monitor that oscillates faster than the step, ``cos(20 t) + 0.5`` on ``[0, 1]``
+    from two intervals: the unresolved ones are split until its shape is known.
+
+    >>> def batch(tau):
+    ...     return np.atleast_2d(np.cos(20 * tau) + 0.5), np.atleast_2d(-20 * np.sin(20 * tau))
+    >>> tau, phi, dphi, refinements = sample_step(0.0, 1.0, batch, 2, 6, 1e-12)
+    >>> refinements > 0, phi.shape == (1, tau.size), bool(np.all(np.diff(tau) > 0))
+    (True, True, True)
     """
     grid = np.linspace(t0, t1, samples + 1)
     g_phi, g_dphi = batch(grid)
@@ -253,6 +276,18 @@ def first_trigger(index: int, tau: np.ndarray, phi: np.ndarray, dphi: np.ndarray
     armed : bool
         Whether the monitor is armed at the end of the samples (used to carry
         the state into the next step when nothing triggers).
+
+    Examples
+    --------
+    The first zero of ``cos(20 t) + 0.5`` is at ``acos(-0.5) / 20 = pi / 30``:
+
+    >>> fn = lambda t: np.cos(20 * t) + 0.5
+    >>> def batch(tau):
+    ...     return np.atleast_2d(fn(tau)), np.atleast_2d(-20 * np.sin(20 * tau))
+    >>> tau, phi, dphi, _ = sample_step(0.0, 1.0, batch, 2, 6, 1e-12)
+    >>> trigger, armed = first_trigger(0, tau, phi[0], dphi[0], True, fn, 1e-12, 1e-12)
+    >>> bool(abs(trigger.t - np.pi / 30) < 1e-12 and fn(trigger.t) <= 0), trigger.grazing
+    (True, False)
     """
     h = np.diff(tau)
     fa, fb, da, db = phi[:-1], phi[1:], dphi[:-1], dphi[1:]

@@ -38,7 +38,17 @@ _SCENARIO_SETTINGS = ("method", "rtol", "atol", "max_step")
 
 
 class ProblemError(HybridlabError, ValueError):
-    """An argument of a problem is wrong: one line naming the argument and the value."""
+    """An argument of a problem is wrong: one line naming the argument and the value.
+
+    Examples
+    --------
+    >>> HybridProblem.build("models/bouncing_ball.toml", t_end=1.0, params={"k": 1.0})
+    Traceback (most recent call last):
+    ...
+    hybridlab.simulation.problem.ProblemError: params: unknown parameter 'k'; expected one of: g, e
+    >>> issubclass(ProblemError, ValueError)
+    True
+    """
 
 
 def as_compiled(model: Model | CompiledModel | str | Path | HybridProblem) -> CompiledModel:

@@ -19,7 +19,18 @@ __all__ = ["Status", "Event", "Segment", "FinalState", "SimulationStats", "Simul
 
 
 class Status(enum.Enum):
-    """How a simulation ended; each value is an actionable explanation."""
+    """How a simulation ended; each value is an actionable explanation.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> result = hybridlab.simulate("models/bouncing_ball.toml", t_end=3.0, max_events=1,
+    ...                             backend="reference")
+    >>> result.status.name, result.status.ok, Status.COMPLETED.ok
+    ('MAX_EVENTS', False, True)
+    >>> result.status.value
+    'stopped after max_events events: raise max_events if this is expected'
+    """
 
     COMPLETED = "reached t_end"
     ZENO = ("events accumulate in finite time (Zeno behaviour); the model has no solution past "
@@ -43,7 +54,16 @@ class Status(enum.Enum):
 
 @dataclass(frozen=True)
 class FinalState:
-    """Where a simulation ended."""
+    """Where a simulation ended.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> result = hybridlab.simulate("models/bouncing_ball.toml", t_end=3.0, backend="reference")
+    >>> final = result.final
+    >>> final.t, final.j, final.mode, round(final.state["h"], 6)
+    (3.0, 1, 'fall', 5.493562)
+    """
 
     t: float
     j: int
@@ -53,7 +73,18 @@ class FinalState:
 
 class SimulationStats(TypedDict, total=False):
     """What :attr:`SimulationResult.stats` holds: the run's counters and which backend ran it
-    (a run has the keys that apply to it)."""
+    (a run has the keys that apply to it).
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> stats = hybridlab.simulate("models/bouncing_ball.toml", t_end=3.0,
+    ...                            backend="reference").stats
+    >>> stats["backend"], stats["segments"], stats["events_located"]
+    ('reference', 2, 2)
+    >>> "fallback" in stats  # set only when the compiled backend could not run the model
+    False
+    """
 
     steps: int
     refinements: int
@@ -91,6 +122,18 @@ class SimulationResult:
     stats : SimulationStats
         Counters: steps, flow evaluations, event locations, refinements; and the
         backend that ran the run.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> result = hybridlab.simulate("models/bouncing_ball.toml", t_end=3.0, backend="reference")
+    >>> result.status.ok, [(round(t, 6), j, mode) for t, j, mode in result.mode_trace()]
+    (True, [(0.0, 0, 'fall'), (1.427843, 1, 'fall')])
+    >>> result(1.0)  # dense state (h, v) at t = 1: 10 - 9.81 / 2 and -9.81
+    array([ 5.095, -9.81 ])
+    >>> grid, states = result.sample(1.0)
+    >>> grid.tolist(), states.shape
+    ([0.0, 1.0, 2.0, 3.0], (2, 4))
     """
 
     status: Status

@@ -49,6 +49,17 @@ def equivalent_sigma(mode: CompiledMode, t: float, x: np.ndarray, p: np.ndarray,
     """Equivalent sign values of the ``sliding`` switches at one point.
 
     Solves ``ds_S/dt = 0`` (linear in ``sigma_S`` for flows affine in sigma).
+
+    Examples
+    --------
+    The relay ``x' = -k sign(x) + w0 sin(omega t)`` slides on ``x = 0`` with
+    ``sigma = w0 sin(omega t) / k``:
+
+    >>> import hybridlab
+    >>> compiled = hybridlab.compile_model(hybridlab.load_model("models/relay_sliding.toml"))
+    >>> relay, p = compiled.modes["relay"], compiled.parameter_vector({"w0": 0.5})
+    >>> equivalent_sigma(relay, np.pi / 2, np.array([0.0]), p, np.array([1.0]), [0]).tolist()
+    [0.5]
     """
     sliding = list(sliding)
     base = sigma.copy()
@@ -68,7 +79,18 @@ def equivalent_sigma(mode: CompiledMode, t: float, x: np.ndarray, p: np.ndarray,
 
 def equivalent_sigma_batch(mode: CompiledMode, t: np.ndarray, x: np.ndarray, p: np.ndarray,
                            sigma: np.ndarray, sliding: Sequence[int]) -> np.ndarray:
-    """:func:`equivalent_sigma` at ``k`` points; returns shape ``(len(sliding), k)``."""
+    """:func:`equivalent_sigma` at ``k`` points; returns shape ``(len(sliding), k)``.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> compiled = hybridlab.compile_model(hybridlab.load_model("models/relay_sliding.toml"))
+    >>> relay, p = compiled.modes["relay"], compiled.parameter_vector({"w0": 0.5})
+    >>> t = np.array([0.0, np.pi / 6, np.pi / 2])
+    >>> sigma = equivalent_sigma_batch(relay, t, np.zeros((1, 3)), p, np.array([1.0]), [0])
+    >>> sigma.round(12).tolist()
+    [[0.0, 0.25, 0.5]]
+    """
     sliding = list(sliding)
     base = sigma.copy()
     base[sliding] = 0.0
@@ -105,6 +127,20 @@ def resolve_switches(mode: CompiledMode, t: float, x: np.ndarray, p: np.ndarray,
         New signs; sliding entries hold their equivalent value.
     sliding : tuple of int
         The switches that slide.
+
+    Examples
+    --------
+    On ``x = 0`` the relay ``x' = -k sign(x) + w0 sin(omega t)`` (``k = 1``) slides while
+    the disturbance is within its authority, and is pushed across when it is not:
+
+    >>> import hybridlab
+    >>> compiled = hybridlab.compile_model(hybridlab.load_model("models/relay_sliding.toml"))
+    >>> relay, x = compiled.modes["relay"], np.array([0.0])
+    >>> weak, strong = (compiled.parameter_vector({"w0": w0}) for w0 in (0.5, 2.0))
+    >>> resolve_switches(relay, np.pi / 2, x, weak, np.array([1.0]), [0])
+    (array([0.5]), (0,))
+    >>> resolve_switches(relay, np.pi / 2, x, strong, np.array([-1.0]), [0])
+    (array([1.]), ())
     """
     sigma = sigma.copy()
     previous = sigma.copy()

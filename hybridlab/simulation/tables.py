@@ -46,6 +46,18 @@ class Event:
         flow was crossed), ``"slide_start"`` or ``"slide_end"`` (Filippov sliding).
     grazing : bool
         The guard was reached tangentially.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> result = hybridlab.simulate("models/bouncing_ball.toml", t_end=3.0, backend="reference")
+    >>> bounce = result.events[0]
+    >>> bounce.transition, bounce.kind, bounce.j, round(bounce.t, 6)
+    ('bounce', 'jump', 1, 1.427843)
+    >>> round(bounce.pre["v"], 6), round(bounce.post["v"], 6)  # v+ = -e v with e = 0.8
+    (-14.007141, 11.205713)
+    >>> sorted(bounce.as_dict())
+    ['grazing', 'j', 'kind', 'post', 'pre', 'source', 't', 'target', 'transition']
     """
 
     t: float
@@ -67,7 +79,21 @@ class Event:
 
 @dataclass(frozen=True)
 class Segment:
-    """A piece of flow in one mode between two jumps (or a solver restart)."""
+    """A piece of flow in one mode between two jumps (or a solver restart).
+
+    ``t`` and ``y`` hold the stored points (``y`` has shape ``(n, len(t))``);
+    calling the segment evaluates its dense interpolant.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> result = hybridlab.simulate("models/bouncing_ball.toml", t_end=3.0, backend="reference")
+    >>> fall = result.segments[0]
+    >>> fall.mode, fall.j, fall.t_start, round(fall.t_end, 6)
+    ('fall', 0, 0.0, 1.427843)
+    >>> fall(0.5)  # h = 10 - 9.81 * 0.5**2 / 2, v = -9.81 * 0.5
+    array([ 8.77375, -4.905  ])
+    """
 
     mode: str
     j: int

@@ -13,7 +13,15 @@ __all__ = ["ZenoVerdict", "ZenoTracker"]
 
 @dataclass(frozen=True)
 class ZenoVerdict:
-    """Evidence that one transition's firings accumulate at ``accumulation_time``."""
+    """Evidence that one transition's firings accumulate at ``accumulation_time``.
+
+    Examples
+    --------
+    >>> verdict = ZenoVerdict("bounce", 40, 0.8, 12.8506)
+    >>> verdict.describe()
+    "transition 'bounce' fired 40 times with dwell times shrinking by a factor 0.8;
+    firings accumulate at t = 12.8506"
+    """
 
     transition: str
     firings: int

@@ -23,6 +23,19 @@ class ScalarFields:
 
     ``derivative`` returns ``dh/dt = dh/dt|_x + grad_x h . f``, the Lie
     derivative, given the flow value ``f`` at the same point.
+
+    Examples
+    --------
+    The bouncing ball's energy ``g h + v^2/2`` and its rate along the flow ``(v, -g)``:
+
+    >>> from hybridlab.model.loader import load_model
+    >>> sym = load_model("models/bouncing_ball.toml").symbolic
+    >>> energy = ScalarFields([sym.definitions["energy"]], sym)
+    >>> x, p, no_sigma = np.array([10.0, -2.0]), np.array([9.81, 0.8]), np.array([])
+    >>> energy.size, energy.values(0.0, x, p, no_sigma), energy.gradient(0.0, x, p, no_sigma)
+    (1, array([100.1]), array([[ 9.81, -2.  ]]))
+    >>> energy.derivative(0.0, x, p, no_sigma, np.array([-2.0, -9.81]))  # conserved
+    array([0.])
     """
 
     def __init__(self, exprs: Sequence[sp.Expr], sym: SymbolicModel,
@@ -63,7 +76,25 @@ class ScalarFields:
 
 @dataclass(frozen=True, eq=False)
 class CompiledTransition:
-    """A transition as numeric functions; see :class:`hybridlab.Transition`."""
+    """A transition as numeric functions; see :class:`hybridlab.Transition`.
+
+    Examples
+    --------
+    >>> from hybridlab.model.loader import load_model
+    >>> ball = compile_model(load_model("models/bouncing_ball.toml"))
+    >>> bounce = ball.transitions[0]
+    >>> bounce.name, bounce.guard_texts, bounce.scheduled, bounce.order_key
+    ('bounce', ('h <= 0',), False, (False, 1, 0))
+    >>> p, no_sigma = ball.parameter_vector(), np.array([])
+    >>> bounce.reset(0.0, np.array([0.0, -14.0]), p, no_sigma)  # v := -e*v
+    array([ 0. , 11.2])
+
+    A scheduled transition has a period and phase instead of a guard:
+
+    >>> sample = compile_model(load_model("models/sampled_control.toml")).transitions[0]
+    >>> sample.guard is None, sample.period_and_phase(np.array([2.0, 0.1]))
+    (True, (0.1, 0.0))
+    """
 
     index: int
     name: str
@@ -115,6 +146,23 @@ class CompiledMode:
 
     ``flow(t, x, p, sigma)`` is smooth: the discontinuities are the
     ``switches``, whose signs ``sigma`` the simulator supplies.
+
+    Examples
+    --------
+    The friction oscillator's flow ``(v, (F - k x - c sign(v) - d v)/m)`` on either side
+    of its switch ``sign(v)``:
+
+    >>> from hybridlab.model.loader import load_model
+    >>> osc = compile_model(load_model("models/friction_oscillator.toml"))
+    >>> move = osc.modes["move"]
+    >>> [s.text for s in move.switches], move.invariant_texts, move.affine_in_sigma
+    (['sign(v)'], (), True)
+    >>> x, p = osc.state_vector(), osc.parameter_vector()  # x = 1, v = 0; k = 4, c = 0.5
+    >>> move.flow(0.0, x, p, np.array([1.0])), move.flow(0.0, x, p, np.array([-1.0]))
+    (array([ 0. , -4.5]), array([ 0. , -3.5]))
+    >>> move.jacobian(0.0, x, p, np.array([1.0]))
+    array([[ 0.,  1.],
+           [-4., -0.]])
     """
 
     name: str
@@ -144,6 +192,21 @@ class CompiledModel:
 
     Obtain it with :func:`compile_model`; parameters and initial values are
     vectors supplied at call time, so overrides never recompile.
+
+    Examples
+    --------
+    >>> from hybridlab.model.loader import load_model
+    >>> ball = compile_model(load_model("models/bouncing_ball.toml"))
+    >>> ball.state_names, ball.parameter_names, list(ball.modes)
+    (('h', 'v'), ('g', 'e'), ['fall'])
+    >>> ball.parameter_vector({"e": 0.5}), ball.state_vector({"h": 2.0})
+    (array([9.81, 0.5 ]), array([2., 0.]))
+    >>> ball.parameter_vector({"k": 1.0})
+    Traceback (most recent call last):
+    ...
+    ValueError: unknown parameter 'k'; expected one of: g, e
+    >>> compile_model(ball.model) is ball  # cached on the model
+    True
     """
 
     model: Model

@@ -32,6 +32,15 @@ class Switch:
         ``"sign"``, ``"abs"``, ``"min"`` or ``"max"``: what produced it.
     text : str
         A readable form, such as ``"sign(v)"``, used in event logs.
+
+    Examples
+    --------
+    >>> x, y = sp.symbols("x y", real=True)
+    >>> smooth, (switch,) = extract_switches([sp.Max(x, y)])
+    >>> switch
+    Switch(symbol=_sigma0, expr=x - y, kind='max', text='max(x, y)')
+    >>> smooth[0].subs(switch.symbol, 1), smooth[0].subs(switch.symbol, -1)  # x > y, x < y
+    (x, y)
     """
 
     symbol: sp.Symbol

@@ -41,11 +41,33 @@ _INF = math.inf
 
 
 class IntervalError(HybridlabError, ValueError):
-    """An expression cannot be enclosed by interval arithmetic (unsupported function)."""
+    """An expression cannot be enclosed by interval arithmetic (unsupported function).
+
+    Examples
+    --------
+    >>> x = sp.Symbol("x", real=True)
+    >>> interval_eval(sp.gamma(x), {x: (1.0, 2.0)})
+    Traceback (most recent call last):
+    ...
+    hybridlab.symbolic.intervals.IntervalError: interval arithmetic does not support gamma in
+    gamma(x)
+    """
 
 
 class EmptyInterval(IntervalError):
-    """The expression is undefined at every point of the box (``sqrt`` of a negative interval)."""
+    """The expression is undefined at every point of the box (``sqrt`` of a negative interval).
+
+    Examples
+    --------
+    >>> x = sp.Symbol("x", real=True)
+    >>> try:
+    ...     interval_eval(sp.sqrt(x), {x: (-2.0, -1.0)})
+    ... except EmptyInterval as exc:  # also an IntervalError
+    ...     print(exc)
+    sqrt of a negative interval [-2.0, -1.0]
+    >>> interval_eval(sp.sqrt(x), {x: (-1.0, 4.0)}).lo  # defined on part of the box
+    0.0
+    """
 
 
 _MAX = float(np.finfo(float).max)

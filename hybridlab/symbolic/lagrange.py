@@ -37,6 +37,17 @@ class LagrangeEquations:
         ``u'`` as functions of ``t, q, u`` and the placeholders.
     forces : tuple of sympy.Symbol
         One placeholder per coordinate.
+
+    Examples
+    --------
+    A cart of mass ``m`` on a spring ``k``, without solving for the acceleration:
+
+    >>> x, u, a, m, k = sp.symbols("x u a m k", real=True)
+    >>> eq = lagrange_equations(m*u**2/2, k*x**2/2, [x], [u], solve=False)
+    >>> eq.mass_matrix, eq.rhs, eq.forces, eq.accelerations
+    (Matrix([[m]]), Matrix([[_Q0 - k*x]]), (_Q0,), ())
+    >>> eq.residuals([a])  # m a = Q - k x
+    [-_Q0 + a*m + k*x]
     """
 
     mass_matrix: sp.Matrix
@@ -107,6 +118,29 @@ def mode_flow(sym: SymbolicModel, mode_name: str,
     """The full flow of a mode: its own expressions plus the derived mechanics.
 
     A flow the mode states explicitly wins over the derived one.
+
+    Examples
+    --------
+    A damped pendulum whose ``swing`` mode states no flow of its own:
+
+    >>> from hybridlab.model.loader import loads_model
+    >>> sym = loads_model('''
+    ... name = "pendulum"
+    ... parameters = { m = 1.0, l = 0.5, g = 9.81, b = 0.1 }
+    ... states = { phi = 0.1, omega = 0.0 }
+    ... modes.swing = {}
+    ... initial.mode = "swing"
+    ... [mechanics]
+    ... coordinates = ["phi"]
+    ... velocities = ["omega"]
+    ... kinetic = "m*l**2*omega**2/2"
+    ... potential = "-m*g*l*cos(phi)"
+    ... forces = { phi = "-b*omega" }
+    ... ''').symbolic
+    >>> mech = sym.mechanics
+    >>> eq = lagrange_equations(mech.kinetic, mech.potential, [sym.states[0]], [sym.states[1]])
+    >>> mode_flow(sym, "swing", eq)
+    (omega, (-b*omega - g*l*m*sin(phi))/(l**2*m))
     """
     mode = sym.modes[mode_name]
     flow = list(mode.flow)

@@ -43,7 +43,16 @@ __all__ = ["ArrayPrinter", "Lowered", "PrintError", "ScalarPrinter", "common_sub
 
 class PrintError(HybridlabError, ValueError):
     """An expression cannot be printed: a symbol without a generated name, or a construct
-    the target cannot express."""
+    the target cannot express.
+
+    Examples
+    --------
+    >>> x, y = sp.symbols("x y", real=True)
+    >>> ArrayPrinter({x: "x[0]"}).doprint(x + y)
+    Traceback (most recent call last):
+    ...
+    hybridlab.symbolic.printing.PrintError: symbol 'y' has no generated name
+    """
 
 
 class _Guarded:
@@ -64,7 +73,16 @@ class _Guarded:
 
 
 class ArrayPrinter(_Guarded, NumPyPrinter):
-    """numpy source: works element-wise on arrays of points (fully qualified ``numpy.``)."""
+    """numpy source: works element-wise on arrays of points (fully qualified ``numpy.``).
+
+    Examples
+    --------
+    A parameter named ``e`` is printed as its generated name, Euler's number as ``numpy.e``:
+
+    >>> e, x = sp.symbols("e x", real=True)
+    >>> ArrayPrinter({x: "x[0]", e: "p[0]"}).doprint(e * sp.exp(1) + sp.sin(x))
+    'numpy.e*p[0] + numpy.sin(x[0])'
+    """
 
     def __init__(self, names: Mapping[sp.Symbol, str]) -> None:
         super().__init__({"fully_qualified_modules": True, "inline": True,
@@ -77,6 +95,13 @@ class ScalarPrinter(_Guarded, PythonCodePrinter):
 
     ``sign`` is printed as a call of ``_sign`` (the caller's module defines it) and
     ``min``/``max`` as the builtins over floats, which numba compiles.
+
+    Examples
+    --------
+    >>> c, v = sp.symbols("c v", real=True)
+    >>> printer = ScalarPrinter({c: "p0", v: "x1"}, sign="_sign")
+    >>> printer.doprint(-c * sp.sign(v) + sp.Max(v, 0) + sp.cos(v))
+    '-p0*_sign(x1) + math.cos(x1) + max(float(0), float(x1))'
     """
 
     def __init__(self, names: Mapping[sp.Symbol, str], *, sign: str | None = None) -> None:
@@ -98,7 +123,17 @@ class ScalarPrinter(_Guarded, PythonCodePrinter):
 
 
 def scalar_printer(names: Mapping[sp.Symbol, str], *, sign: str | None = None) -> ScalarPrinter:
-    """A :class:`ScalarPrinter` over ``names`` (symbol to generated identifier)."""
+    """A :class:`ScalarPrinter` over ``names`` (symbol to generated identifier).
+
+    Examples
+    --------
+    Without ``sign``, ``sign(x)`` is printed inline:
+
+    >>> x = sp.Symbol("x", real=True)
+    >>> printer = scalar_printer({x: "x0"})
+    >>> printer.doprint(sp.sign(x)), printer.doprint(sp.sqrt(x))
+    ('(0.0 if x0 == 0 else math.copysign(1, x0))', 'math.sqrt(x0)')
+    """
     return ScalarPrinter(names, sign=sign)
 
 
@@ -143,6 +178,15 @@ class Lowered:
     names : dict
         Every symbol that may be printed with its generated name: the arguments'
         names as given, the temporaries' ``_c0, _c1, ...``.
+
+    Examples
+    --------
+    >>> x = sp.Symbol("x", real=True)
+    >>> low = Lowered([sp.sin(x) ** 2 + sp.sin(x), sp.cos(x)], {x: "x[0]"})
+    >>> low.temporaries, low.results
+    ([(_c0, sin(x))], [_c0**2 + _c0, cos(x)])
+    >>> low.statements(ScalarPrinter(low.names), "", "out[{i}] = {value}")
+    ['_c0 = math.sin(x[0])', 'out[0] = _c0**2 + _c0', 'out[1] = math.cos(x[0])']
     """
 
     def __init__(self, exprs: Sequence[sp.Expr], names: Mapping[sp.Symbol, str],

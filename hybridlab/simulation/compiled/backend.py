@@ -220,7 +220,18 @@ class _StepInterpolant:
 
 @dataclass(frozen=True)
 class Prepared:
-    """A model ready for the kernel: its module and static tables."""
+    """A model ready for the kernel: its module and static tables.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> compiled = hybridlab.compile_model(hybridlab.load_model("models/thermostat.toml"))
+    >>> prepared = prepare(compiled)  # loads the model's numba module (compiled once, cached)
+    >>> prepared.mode_names, prepared.jump_labels, prepared.n_sig
+    (('heat', 'cool'), ('turn_off', 'turn_on'), 0)
+    >>> prepared.unscheduled is not None  # nothing scheduled: one set of tables for every run
+    True
+    """
 
     source: ModelSource
     module: ModuleType
@@ -424,6 +435,14 @@ def prepare(compiled: CompiledModel, max_lines: int | None = None) -> Prepared:
     SlowToCompile
         When ``max_lines`` is given, the generated module is longer and it was not
         compiled before.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> compiled = hybridlab.compile_model(hybridlab.load_model("models/thermostat.toml"))
+    >>> prepared = prepare(compiled)
+    >>> prepare(compiled) is prepared, prepared.module.__name__[:16]
+    (True, 'hybridlab_model_')
     """
     if compiled in _PREPARED:
         return _PREPARED[compiled]
@@ -495,7 +514,21 @@ def _fallback(compiled: CompiledModel, reason: str, **kw) -> SimulationResult:
 
 def run(compiled: CompiledModel, *, t0: float, x0: np.ndarray, mode: str, t_end: float,
         p: np.ndarray, options: SimulationOptions) -> SimulationResult:
-    """Simulate with the compiled kernel (see ``hybridlab.simulate``)."""
+    """Simulate with the compiled kernel (see ``hybridlab.simulate``).
+
+    Methods and models the kernel cannot run go to the reference engine, and
+    ``result.stats["fallback"]`` says why.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> from hybridlab.simulation.options import SimulationOptions
+    >>> compiled = hybridlab.compile_model(hybridlab.load_model("models/bouncing_ball.toml"))
+    >>> result = run(compiled, t0=0.0, x0=compiled.state_vector(), mode="fall", t_end=3.0,
+    ...              p=compiled.parameter_vector(), options=SimulationOptions(method="LSODA"))
+    >>> result.status.name, result.stats["backend"], result.stats["fallback"]
+    ('COMPLETED', 'reference', 'method LSODA runs on the reference backend')
+    """
     kw = {"t0": t0, "x0": x0, "mode": mode, "t_end": t_end, "p": p, "options": options}
     o = options
     if o.method not in METHOD_CODES:

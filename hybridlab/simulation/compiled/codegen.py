@@ -63,7 +63,27 @@ _INTERVAL_DIGEST = hashlib.sha256(
 
 
 class UnsupportedModel(Exception):
-    """The model uses something the printer cannot turn into numba code."""
+    """The model uses something the printer cannot turn into numba code.
+
+    The compiled backend then runs the model on the reference engine (the reason is in
+    ``result.stats["fallback"]``). So it does for a model too long to compile quickly
+    under ``backend="auto"`` (:class:`~.backend.SlowToCompile`, a subclass).
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from unittest import mock
+    >>> import hybridlab
+    >>> from hybridlab.simulation.compiled.backend import prepare
+    >>> compiled = hybridlab.compile_model(hybridlab.load_model("models/thermostat.toml"))
+    >>> with (tempfile.TemporaryDirectory() as empty,  # a cache where nothing was compiled
+    ...       mock.patch.dict(os.environ, {"HYBRIDLAB_CACHE_DIR": empty})):
+    ...     try:
+    ...         prepare(compiled, max_lines=50)
+    ...     except UnsupportedModel as exc:
+    ...         print(f"{type(exc).__name__}: {exc}")
+    SlowToCompile: its generated code has ... lines (more than 50), which numba would take ...
+    """
 
 
 @dataclass(frozen=True)
@@ -88,6 +108,18 @@ class ModelSource:
         Per mode: the group of its invariants' box op (-1: none).
     reset_group, guard_group : tuple of int
         Per transition: the group of its reset and of its guard (-1: none).
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> source = generate(hybridlab.compile_model(
+    ...     hybridlab.load_model("models/relay_sliding.toml")))
+    >>> source.flow_group, source.switch_group, source.slide_group, source.switch_free
+    ((0,), (0,), (0,), (1,))
+    >>> source.reset_group, source.guard_group  # no transitions
+    ((), ())
+    >>> source.text.count("@numba.cfunc(")  # the point ops' function and the box ops'
+    2
     """
 
     text: str
