@@ -55,3 +55,29 @@ def _modules_loaded_by(code: str) -> set[str]:
 def test_import_and_help_load_no_numerical_library(code: str) -> None:
     loaded = _modules_loaded_by(code)
     assert not loaded & {"numpy", "scipy", "sympy", "pydantic", "networkx", "numba"}
+
+
+# a kernel module whose docstring edits would force a numba recompile of the kernel
+_NO_EXAMPLE = {"hybridlab.simulation.compiled.signatures.watch_addresses"}
+
+
+def test_every_public_name_has_a_runnable_example() -> None:
+    import inspect
+    import pkgutil
+
+    import hybridlab
+
+    missing = []
+    for info in pkgutil.walk_packages(hybridlab.__path__, "hybridlab."):
+        if info.name == "hybridlab.__main__":
+            continue
+        module = importlib.import_module(info.name)
+        for name in getattr(module, "__all__", ()):
+            obj = getattr(module, name)
+            if getattr(obj, "__module__", None) != module.__name__ or not (
+                    inspect.isclass(obj) or inspect.isfunction(obj)):
+                continue  # re-exported, or a constant
+            if ">>>" not in (inspect.getdoc(obj) or "") and \
+                    f"{module.__name__}.{name}" not in _NO_EXAMPLE:
+                missing.append(f"{module.__name__}.{name}")
+    assert not missing, f"public names without an example: {', '.join(missing)}"
