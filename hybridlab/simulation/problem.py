@@ -72,8 +72,7 @@ def as_compiled(model: Model | CompiledModel | str | Path | HybridProblem) -> Co
     return compile_model(model)
 
 
-def scenario_of(spec: Model, scenario: str | None, *,
-                error: type[Exception] = ProblemError) -> Scenario | None:
+def scenario_of(spec: Model, scenario: str | None) -> Scenario | None:
     """The named scenario, the model's ``"default"`` one when unnamed, else None.
 
     Examples
@@ -92,7 +91,7 @@ def scenario_of(spec: Model, scenario: str | None, *,
         return None
     if scenario not in spec.scenarios:
         known = ", ".join(spec.scenarios) or "none"
-        raise error(f"scenario: unknown scenario {scenario!r}; the model has: {known}")
+        raise ProblemError(f"scenario: unknown scenario {scenario!r}; the model has: {known}")
     return spec.scenarios[scenario]
 
 
