@@ -28,3 +28,21 @@ def models_dir() -> Path:
 @pytest.fixture(scope="session")
 def ball() -> hybridlab.Model:
     return hybridlab.load_model(MODELS / "bouncing_ball.toml")
+
+
+@pytest.fixture(params=["compiled", "reference"])
+def each_engine(request, monkeypatch) -> str:
+    """Run the requesting test on both engines (compiled only when numba is installed).
+
+    A test that chooses its engine itself (a ``backend`` argument) runs once.
+    """
+    if "backend" in request.fixturenames:
+        if request.param == "reference":
+            pytest.skip("the test chooses its engine itself")
+        return "own"
+    if request.param == "compiled":
+        pytest.importorskip("numba")
+    import hybridlab.simulation.api as api
+
+    monkeypatch.setattr(api, "use_compiled", lambda _: request.param == "compiled")
+    return str(request.param)

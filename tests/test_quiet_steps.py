@@ -23,16 +23,17 @@ numba = pytest.importorskip("numba")
 
 from hybridlab.simulation.compiled import interval_ops as iv  # noqa: E402
 from hybridlab.simulation.compiled.backend import prepare  # noqa: E402
-from hybridlab.simulation.compiled.bounds import (  # noqa: E402
-    OP_GUARD_BOX,
-    OP_INV_BOX,
-    OP_SWITCH_BOX,
-    state_box,
-)
-from hybridlab.simulation.compiled.codegen import OP_GUARD, OP_SWITCH  # noqa: E402
+from hybridlab.simulation.compiled.bounds import state_box  # noqa: E402
 from hybridlab.simulation.compiled.integrate import DOP853 as DOP853_CODE  # noqa: E402
 from hybridlab.simulation.compiled.integrate import RK45 as RK45_CODE  # noqa: E402
 from hybridlab.simulation.compiled.integrate import dense_eval  # noqa: E402
+from hybridlab.simulation.compiled.opcodes import (  # noqa: E402
+    OP_GUARD,
+    OP_GUARD_BOX,
+    OP_INV_BOX,
+    OP_SWITCH,
+    OP_SWITCH_BOX,
+)
 
 _floats = st.floats(-50.0, 50.0, allow_nan=False)
 
@@ -305,13 +306,3 @@ def test_quiet_steps_change_no_event_on_random_models(tmp_path, seed):
     assert len(sampled.events) > 5
     assert _record(proven) == _record(sampled)
     assert 0 < proven.stats["quiet_steps"] < proven.stats["steps"]
-
-
-def test_the_kernel_modules_use_the_op_codes_codegen_prints():
-    # the kernel modules keep their own copies (they must not import sympy through codegen)
-    from hybridlab.simulation.compiled import bounds, codegen, kernel, locate
-
-    for module in (bounds, kernel, locate):
-        for name in dir(module):
-            if name.startswith("OP_") and hasattr(codegen, name):
-                assert getattr(module, name) == getattr(codegen, name), (module.__name__, name)

@@ -13,15 +13,7 @@ from hybridlab import Status
 G, H0 = 9.81, 10.0
 
 
-@pytest.fixture(autouse=True, params=["compiled", "reference"])
-def backend(request, monkeypatch):
-    """Every closed form on both backends (compiled only when numba is installed)."""
-    if request.param == "compiled":
-        pytest.importorskip("numba")
-    import hybridlab.simulation.api as api
-
-    monkeypatch.setattr(api, "use_compiled", lambda _: request.param == "compiled")
-    return request.param
+pytestmark = pytest.mark.usefixtures("each_engine")
 
 
 def ball_impacts(e: float, count: int) -> np.ndarray:

@@ -10,6 +10,8 @@ import pytest
 import hybridlab
 from hybridlab import Status
 
+pytestmark = pytest.mark.usefixtures("each_engine")
+
 
 def model(text: str) -> hybridlab.Model:
     return hybridlab.loads_model(text, source="<test>")

@@ -9,6 +9,8 @@ import pytest
 
 import hybridlab
 
+pytestmark = pytest.mark.usefixtures("each_engine")
+
 
 def test_sign_flow_settles_on_the_surface_with_a_handful_of_events(models_dir):
     result = hybridlab.simulate(models_dir / "relay_sliding.toml")

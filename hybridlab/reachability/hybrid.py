@@ -58,6 +58,7 @@ from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.result import ReachResult, ReachSet, _Context
 from hybridlab.reachability.sets import Box, SetError, Zonotope
 from hybridlab.reachability.system import Rows, System
+from hybridlab.simulation.rules import SCHEDULE_SLACK, schedule_index
 from hybridlab.symbolic.intervals import IntervalFunction
 
 if TYPE_CHECKING:
@@ -419,12 +420,12 @@ class _Analysis:
         best, due = math.inf, []
         for tr in scheduled:
             period, phase = self.schedules[tr.index]
-            k = max(math.ceil((now - phase) / period - 1e-9), 0)
+            k = schedule_index(now, phase, period, done=-1)
             s = phase + k * period
             if done_at is not None and abs(done_at[0] - s) <= 1e-12 * max(1.0, abs(s)) \
                     and tr.index in done_at[1]:
                 s = phase + (k + 1) * period
-            if abs(s - now) <= 1e-9 * period:
+            if abs(s - now) <= SCHEDULE_SLACK * period:
                 s = now
             if s < best - 1e-12 * max(1.0, abs(s)):
                 best, due = s, [tr]

@@ -20,12 +20,15 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 from scipy import integrate
 
 from hybridlab.errors import SimulationError, ZenoError
+from hybridlab.simulation import rules
 from hybridlab.simulation.interpolant import dense_slope
 from hybridlab.simulation.location import (
     Trigger,
@@ -47,13 +50,84 @@ from hybridlab.simulation.tables import EventTable, SegmentTable
 from hybridlab.simulation.zeno import ZenoTracker
 from hybridlab.symbolic.compile import CompiledMode, CompiledModel, CompiledTransition
 
-__all__ = ["run"]
+__all__ = ["run", "resume", "Checkpoint"]
 
 _SOLVERS = {
     "RK45": integrate.RK45, "RK23": integrate.RK23, "DOP853": integrate.DOP853,
     "Radau": integrate.Radau, "BDF": integrate.BDF, "LSODA": integrate.LSODA,
 }
 _NO_SIGMA = np.empty(0)
+
+
+@dataclass(frozen=True)
+class Checkpoint:
+    """A run stopped part-way: everything :func:`resume` needs to continue it.
+
+    The compiled backend hands a run it cannot finish (an invariant violated at a
+    mode's entry, a zero-dwell cascade, a failed step, non-affine sliding) to the
+    reference engine as one of these.
+
+    Attributes
+    ----------
+    t, x, mode
+        Where the run stands.
+    entry
+        ``"iterate"``: at an event iteration without fresh guards (the mode's signs
+        already entered); ``"handle"``: a flow segment just ended on ``triggers``;
+        ``"flow"``: about to flow from ``(t, x)``.
+    jumps
+        The hybrid time's jump counter ``j``.
+    events, segments
+        The run's record so far.
+    sigma, sliding
+        The signs of the mode's switching functions (empty when it has none) and
+        the indices of those it slides on.
+    schedules_done
+        The index of the last instant fired, by scheduled transition index.
+    last_step
+        The integrator's last step size (``None``: choose afresh).
+    zeno_history
+        Per Zeno key (a transition's name, or ``"switch:..."``): how many times it
+        fired and its most recent firing times.
+    stats
+        Counters carried on (``steps``, ``refinements``, ``events_located``,
+        ``quiet_steps``).
+    triggers
+        The monitors that ended the last flow segment (``entry="handle"``).
+
+    Examples
+    --------
+    Stop a bouncing ball at t = 2 and continue it to t = 5; the impacts are those of one
+    run to t = 5:
+
+    >>> import hybridlab
+    >>> from hybridlab.simulation.options import SimulationOptions
+    >>> compiled = hybridlab.compile_model(hybridlab.load_model("models/bouncing_ball.toml"))
+    >>> first = run(compiled, t0=0.0, x0=compiled.state_vector(), mode="fall", t_end=2.0,
+    ...             p=compiled.parameter_vector(), options=SimulationOptions())
+    >>> here = Checkpoint(t=first.final.t, x=list(first.final.state.values()), mode="fall",
+    ...                   entry="flow", jumps=first.final.j, events=list(first.events),
+    ...                   segments=[])
+    >>> rest = resume(compiled, here, p=compiled.parameter_vector(),
+    ...               options=SimulationOptions(), t_end=5.0)
+    >>> rest.final.j, [round(e.t, 6) for e in rest.events]
+    (2, [1.427843, 3.712392])
+    """
+
+    t: float
+    x: Sequence[float] | np.ndarray
+    mode: str
+    entry: Literal["iterate", "handle", "flow"]
+    jumps: int
+    events: Sequence[Event]
+    segments: Sequence[Segment]
+    sigma: np.ndarray = field(default_factory=lambda: _NO_SIGMA)
+    sliding: tuple[int, ...] = ()
+    schedules_done: Mapping[int, int] = field(default_factory=dict)
+    last_step: float | None = None
+    zeno_history: Mapping[str, tuple[int, Sequence[float]]] = field(default_factory=dict)
+    stats: Mapping[str, int] = field(default_factory=dict)
+    triggers: Sequence[Trigger] = ()
 
 
 def _no_conditions(mode: CompiledMode) -> RuntimeError:
@@ -112,13 +186,14 @@ class _Run:
         self.schedules = {tr.index: sched for tr in compiled.transitions
                           if (sched := tr.period_and_phase(p)) is not None}
         self.h_last: float | None = None
-        self.zeno = ZenoTracker(options.zeno_window, options.zeno_tol, 4 * options.event_tol)
+        self.zeno = ZenoTracker(options.zeno_window, options.zeno_tol,
+                                 rules.ZENO_RESOLUTION * options.event_tol)
         self.stats: SimulationStats = {"steps": 0, "refinements": 0, "events_located": 0,
                                        "segments": 0}
 
     # ----- small helpers -------------------------------------------------------------------
     def xtol(self, t: float) -> float:
-        return self.o.event_tol * max(1.0, abs(t))
+        return rules.event_time_tolerance(self.o.event_tol, t)
 
     def state_map(self, x: np.ndarray) -> dict[str, float]:
         return {n: float(v) for n, v in zip(self.names, x, strict=True)}
@@ -154,8 +229,7 @@ class _Run:
     # ----- scheduled transitions -----------------------------------------------------------
     def _sched_index(self, tr: CompiledTransition, t: float) -> int:
         period, phase = self.schedules[tr.index]
-        k = math.ceil((t - phase) / period - 1e-9)
-        return max(k, self.sched_done.get(tr.index, -1) + 1, 0)
+        return rules.schedule_index(t, phase, period, self.sched_done.get(tr.index, -1))
 
     def _sched_time(self, tr: CompiledTransition, k: int) -> float:
         period, phase = self.schedules[tr.index]
@@ -169,7 +243,8 @@ class _Run:
     def due(self, tr: CompiledTransition, t: float) -> bool:
         if tr.index not in self.schedules:
             return False
-        return abs(self._sched_time(tr, self._sched_index(tr, t)) - t) <= 2 * self.xtol(t)
+        instant = self._sched_time(tr, self._sched_index(tr, t))
+        return abs(instant - t) <= rules.DUE_WIDTH * self.xtol(t)
 
     # ----- guards at an instant ------------------------------------------------------------
     def guard_state(self, tr: CompiledTransition, mode: CompiledMode, t: float,
@@ -203,8 +278,8 @@ class _Run:
         if math.isnan(slope):
             slope = 0.0
         # a vertical tangent (infinite slope) gives no time band
-        band = (8 * self.xtol(t) * abs(slope) if math.isfinite(slope) else 0.0) \
-            + self.o.event_atol
+        band = (rules.RETRIGGER_BAND * self.xtol(t) * abs(slope) if math.isfinite(slope)
+                else 0.0) + self.o.event_atol
         if value < -band:
             return False
         return not (value <= band and slope < 0)  # touching the boundary while leaving
@@ -357,7 +432,7 @@ class _Run:
                                                   self.o.max_refine, self.o.event_atol)
         self.stats["refinements"] += refinements
         xtol = self.xtol(min(abs(t0), abs(t1)))
-        cluster_width = 8 * xtol
+        cluster_width = rules.CLUSTER_WIDTH * xtol
         # locate monitors in the order their first candidate interval starts, and stop once
         # the rest can only fire after the earliest located event (plus the cluster width)
         tol = self.o.event_atol
@@ -436,7 +511,7 @@ class _Run:
             phi0, dphi0 = self.monitor_batch(mode, rows, np.array([t]), x[:, None])
             armed = phi0[:, 0] > self.o.event_atol
             # the state of an event is known to within the event-time tolerance
-            band = 16 * self.xtol(t) * np.abs(dphi0[:, 0]) + self.o.event_atol
+            band = rules.ENTRY_BAND * self.xtol(t) * np.abs(dphi0[:, 0]) + self.o.event_atol
             floors = self.floors(rows, phi0[:, 0], dphi0[:, 0], band, armed)
             for r, row in enumerate(rows):
                 if row.kind == "invariant" and phi0[r, 0] < -band[r]:
@@ -655,6 +730,20 @@ class _Run:
         raise _Stop(Status.INVARIANT_VIOLATED, text)
 
     # ----- driver --------------------------------------------------------------------------
+    def restore(self, checkpoint: Checkpoint) -> None:
+        """Take over the record and the discrete state of a run stopped at ``checkpoint``."""
+        self.events = list(checkpoint.events)
+        self.segments = list(checkpoint.segments)
+        self.j = checkpoint.jumps
+        self.sigma = np.array(checkpoint.sigma, dtype=float)
+        self.sliding = tuple(checkpoint.sliding)
+        self.sched_done = dict(checkpoint.schedules_done)
+        self.h_last = checkpoint.last_step
+        for name, (count, times) in checkpoint.zeno_history.items():
+            self.zeno.restore(name, count, times)
+        self.stats.update(checkpoint.stats)  # type: ignore[typeddict-item]
+        self.stats["segments"] = len(self.segments)
+
     def run(self, t0: float, x0: np.ndarray, mode_name: str) -> SimulationResult:
         mode = self.c.modes[mode_name]
         t, x = float(t0), np.asarray(x0, dtype=float).copy()
@@ -745,3 +834,32 @@ def run(compiled: CompiledModel, *, t0: float, x0: np.ndarray, mode: str, t_end:
     ('COMPLETED', 1, 1.427843)
     """
     return _Run(compiled, p, options, t_end, deadline).run(t0, x0, mode)
+
+
+def resume(compiled: CompiledModel, checkpoint: Checkpoint, *, p: np.ndarray,
+           options: SimulationOptions, t_end: float, deadline: int | None = None
+           ) -> SimulationResult:
+    """Continue a run from ``checkpoint`` to ``t_end`` on the reference engine.
+
+    The result holds the whole run: the checkpoint's events and segments, then
+    those made from it on.
+
+    Examples
+    --------
+    A ball about to flow from its initial state (see :class:`Checkpoint` for a run
+    continued part-way):
+
+    >>> import hybridlab
+    >>> compiled = hybridlab.compile_model(hybridlab.load_model("models/bouncing_ball.toml"))
+    >>> start = Checkpoint(t=0.0, x=compiled.state_vector(), mode="fall", entry="flow",
+    ...                    jumps=0, events=[], segments=[])
+    >>> result = resume(compiled, start, p=compiled.parameter_vector(),
+    ...                 options=SimulationOptions(), t_end=2.0)
+    >>> result.status.name, round(result.events[0].t, 6)
+    ('COMPLETED', 1.427843)
+    """
+    engine = _Run(compiled, p, options, t_end, deadline)
+    engine.restore(checkpoint)
+    mode = compiled.modes[checkpoint.mode]
+    return engine.drive(checkpoint.t, np.array(checkpoint.x, dtype=float), mode,
+                        checkpoint.entry, list(checkpoint.triggers))

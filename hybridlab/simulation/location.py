@@ -23,6 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
+from hybridlab.simulation.rules import CHECK_AT, LOCATE_ITERATIONS, LOCATE_STEP, MINIMUM_WIDTH
+
 __all__ = ["Trigger", "sample_step", "first_trigger", "locate_crossing", "hermite_extremes"]
 
 BatchFn = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
@@ -96,8 +98,6 @@ def hermite_extremes(h: np.ndarray, fa: np.ndarray, fb: np.ndarray, da: np.ndarr
     return pick(values, i_min), pick(s, i_min), pick(values, i_max), pick(s, i_max)
 
 
-_CHECK_AT = 0.41421356237309515  # sqrt(2) - 1: an irrational split keeps grids from aliasing
-
 
 def sample_step(t0: float, t1: float, batch: BatchFn, samples: int, max_refine: int,
                 tol: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
@@ -150,7 +150,7 @@ def sample_step(t0: float, t1: float, batch: BatchFn, samples: int, max_refine: 
         if g_phi.shape[0] == 0 or a_t.size == 0:
             break
         h = b_t - a_t
-        c_t = a_t + _CHECK_AT * h
+        c_t = a_t + CHECK_AT * h
         c_phi, c_d = batch(c_t)
         kept_t.append(c_t)
         kept_phi.append(c_phi)
@@ -158,7 +158,7 @@ def sample_step(t0: float, t1: float, batch: BatchFn, samples: int, max_refine: 
         if level == max_refine:
             break
         k0, k1, k2, k3 = _coefficients(h, a_phi, b_phi, a_d, b_d)
-        q = _CHECK_AT
+        q = CHECK_AT
         predicted = k0 + q * (k1 + q * (k2 + q * k3))
         slope = (k1 + q * (2.0 * k2 + 3.0 * q * k3)) / np.where(h > 0, h, 1.0)
         # value and slope must both agree: one alone can match by accident
@@ -186,7 +186,7 @@ def sample_step(t0: float, t1: float, batch: BatchFn, samples: int, max_refine: 
 
 
 def locate_crossing(fn: ValueFn, lo: float, hi: float, f_lo: float, f_hi: float,
-                    xtol: float, max_iter: int = 200) -> float:
+                    xtol: float, max_iter: int = LOCATE_ITERATIONS) -> float:
     """Shrink ``[lo, hi]`` with ``fn(lo) > 0 >= fn(hi)`` to width ``xtol``; return ``hi``.
 
     Brent's method (:func:`scipy.optimize.brentq`) finds the root; the
@@ -202,15 +202,16 @@ def locate_crossing(fn: ValueFn, lo: float, hi: float, f_lo: float, f_hi: float,
     """
     if f_hi == 0.0 or hi - lo <= xtol:
         return hi
-    root = brentq(fn, lo, hi, xtol=0.25 * xtol, rtol=4 * np.finfo(float).eps,
+    root = brentq(fn, lo, hi, xtol=LOCATE_STEP * xtol, rtol=4 * np.finfo(float).eps,
                   maxiter=max_iter)
-    for candidate in (root, root + 0.25 * xtol, root + 0.5 * xtol):
+    for candidate in (root + k * LOCATE_STEP * xtol for k in range(3)):
         if candidate >= hi:
             return hi
         if fn(candidate) <= 0:
             return candidate
     # noisy function near the root: finish by bisection on the guaranteed bracket
-    lo = max(lo, root - 0.5 * xtol) if fn(max(lo, root - 0.5 * xtol)) > 0 else lo
+    back = max(lo, root - 2 * LOCATE_STEP * xtol)
+    lo = back if fn(back) > 0 else lo
     for _ in range(max_iter):
         if hi - lo <= xtol:
             break
@@ -225,7 +226,7 @@ def locate_crossing(fn: ValueFn, lo: float, hi: float, f_lo: float, f_hi: float,
 def _true_minimum(fn: ValueFn, a: float, b: float, s_guess: float, xtol: float) -> tuple[float,
                                                                                           float]:
     res = minimize_scalar(fn, bounds=(a, b), method="bounded",
-                          options={"xatol": max(xtol, 1e-15 * max(abs(a), abs(b), 1.0))})
+                          options={"xatol": max(xtol, MINIMUM_WIDTH * max(abs(a), abs(b), 1.0))})
     t_best, f_best = float(res.x), float(res.fun)
     guess = a + s_guess * (b - a)
     f_guess = fn(guess)

@@ -17,11 +17,10 @@ from collections.abc import Iterable, Sequence
 import numpy as np
 
 from hybridlab.errors import SimulationError
+from hybridlab.simulation.rules import EQUAL_SLOPES, EQUIVALENT_SIGN_SLACK
 from hybridlab.symbolic.compile import CompiledMode
 
 __all__ = ["equivalent_sigma", "equivalent_sigma_batch", "resolve_switches"]
-
-_EQ_SLACK = 1e-12
 
 
 def _sdot(mode: CompiledMode, t: float, x: np.ndarray, p: np.ndarray,
@@ -166,7 +165,7 @@ def resolve_switches(mode: CompiledMode, t: float, x: np.ndarray, p: np.ndarray,
     # a surface whose flow does not depend on its sign (abs, min, max) is crossed, not slid on
     for k in list(sliding):
         d_plus, d_minus = sides(k)
-        if abs(d_plus - d_minus) <= 1e-14 * (abs(d_plus) + abs(d_minus)):
+        if abs(d_plus - d_minus) <= EQUAL_SLOPES * (abs(d_plus) + abs(d_minus)):
             leave(k, d_plus, d_minus)
     # active set: all candidates slide jointly; drop those whose equivalent sign leaves
     # [-1, 1] or that do not attract, and solve again
@@ -177,7 +176,8 @@ def resolve_switches(mode: CompiledMode, t: float, x: np.ndarray, p: np.ndarray,
         sigma[sliding] = 0.0
         eq = equivalent_sigma(mode, t, x, p, sigma, sliding)
         sigma[sliding] = eq
-        outside = [k for k, value in zip(sliding, eq, strict=True) if abs(value) > 1 + _EQ_SLACK]
+        outside = [k for k, value in zip(sliding, eq, strict=True) if
+                   abs(value) > 1 + EQUIVALENT_SIGN_SLACK]
         if outside:
             for k in outside:
                 sigma[k] = float(np.sign(sigma[k]))

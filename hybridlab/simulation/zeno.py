@@ -80,6 +80,20 @@ class ZenoTracker:
             return ZenoVerdict(name, self._counts[name], r, float(t + remaining))
         return None
 
+    def restore(self, name: str, count: int, times: Sequence[float]) -> None:
+        """Take up ``name``'s history from another run: ``count`` firings, the latest at
+        ``times`` (the last ``window + 1`` are kept).
+
+        Examples
+        --------
+        >>> z = ZenoTracker(window=6, tol=1e-6, time_resolution=1e-12)
+        >>> z.restore("bounce", 12, [0.0, 1.0, 1.5])
+        >>> z.estimate("bounce", 1.5)
+        2.0
+        """
+        self._counts[name] = int(count)
+        self._times[name] = deque((float(t) for t in times), maxlen=self.window + 1)
+
     def estimate(self, name: str, t: float) -> float:
         """The accumulation time of ``name``'s firings extrapolated from its last two dwell
         times (``t`` when they do not shrink or fewer than three firings are known).

@@ -27,13 +27,13 @@ import tempfile
 import time
 import warnings
 import weakref
-from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import cache, partial
 from itertools import accumulate, chain
 from pathlib import Path
 from types import ModuleType
+from typing import Literal
 
 import numba
 import numpy as np
@@ -73,8 +73,11 @@ from hybridlab.symbolic.compile import CompiledModel
 __all__ = ["cache_dir", "prepare", "run", "Prepared", "StepInterpolants"]
 
 
-#: the modules whose numba functions make up the kernel
-_KERNEL_SOURCES = ("signatures", "sliding", "integrate", "locate", "bounds", "kernel")
+#: the modules whose numba functions and constants make up the kernel, relative to
+#: ``hybridlab/simulation``
+_KERNEL_SOURCES = ("compiled/signatures", "compiled/opcodes", "compiled/sliding",
+                   "compiled/integrate", "compiled/locate", "compiled/bounds", "compiled/kernel",
+                   "rules")
 
 
 def _kernel_cache_path() -> Path:
@@ -92,7 +95,8 @@ def _refresh_kernel_cache(cache: Path) -> bool:
     """Drop the kernel's numba cache in ``cache`` when any of its modules changed.
 
     numba validates a cached function against its own source file only, so
-    after an edit of, say, ``locate.py`` it would load a stale kernel. The
+    after an edit of, say, ``locate.py`` or of a rule in ``rules.py`` it would load a
+    stale kernel. The
     digest of the kernel's sources is kept next to the cache. Returns whether
     the cache was dropped.
 
@@ -106,7 +110,7 @@ def _refresh_kernel_cache(cache: Path) -> bool:
     ...     dropped, stale.exists()
     ((True, False), False)
     """
-    here = Path(__file__).parent
+    here = Path(__file__).parent.parent
     digest = hashlib.sha256(b"".join((here / f"{name}.py").read_bytes()
                                      for name in _KERNEL_SOURCES)).hexdigest()
     stamp = cache / "kernel-sources.sha256"
@@ -584,7 +588,8 @@ def _watched() -> tuple[int, int]:
     return watch_addresses()
 
 
-_ENTRIES = {R_ITERATE: "iterate", R_HANDLE: "handle", R_FLOW: "flow"}
+_ENTRIES: dict[int, Literal["iterate", "handle", "flow"]] = {
+    R_ITERATE: "iterate", R_HANDLE: "handle", R_FLOW: "flow"}
 
 
 def _hand_off(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, out: tuple,
@@ -595,33 +600,25 @@ def _hand_off(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, out
     kind, m, j, nev, nsg = (int(v) for v in cp_i[:5])
     if kind == R_START:
         return _fallback(compiled, "the kernel could not enter the initial mode", **kw)
-    run = engine._Run(compiled, p, o, t_end, kw.get("deadline"))
-    mode = compiled.modes[prep.mode_names[m]]
+    mode = prep.mode_names[m]
     events, segments = _records(compiled, prep, o, EV[:nev], PT, ST, SG[:nsg])
-    run.events = list(events)
-    run.segments = list(segments)
-    run.j = j
-    n_sw = len(mode.switches)
-    run.sigma = cp_sig[:n_sw].copy() if n_sw else engine._NO_SIGMA
-    run.sliding = tuple(int(k) for k in np.nonzero(cp_slm[:n_sw])[0])
-    run.sched_done = {i: int(v) for i, v in enumerate(cp_sd) if v >= 0
-                      and i < len(compiled.transitions)}
-    run.h_last = float(cp_f[1]) if cp_f[1] > 0 else None
+    n_sw = len(compiled.modes[mode].switches)
     window = o.zeno_window + 1
-    for key, name in enumerate(prep.zeno_keys):
-        count = int(cp_zc[key])
-        if count:
-            run.zeno._counts[name] = count
-            run.zeno._times[name] = deque(cp_zt[key, :min(count, window)].tolist(),
-                                          maxlen=window)
-    run.stats.update({"steps": int(kstats[0]), "refinements": int(kstats[1]),
-                      "events_located": int(kstats[2]), "segments": len(segments),
-                      "quiet_steps": int(kstats[4])})
-    triggers = None
-    if kind == R_HANDLE:
-        triggers = [Trigger(int(r), float(cp_f[0]), bool(g))
-                    for r, g in zip(cp_rows, cp_graz, strict=True)]
-    result = run.drive(float(cp_f[0]), cp_x.copy(), mode, _ENTRIES[kind], triggers)
+    checkpoint = engine.Checkpoint(
+        t=float(cp_f[0]), x=cp_x.copy(), mode=mode, entry=_ENTRIES[kind], jumps=j,
+        events=list(events), segments=list(segments), sigma=cp_sig[:n_sw].copy(),
+        sliding=tuple(int(k) for k in np.nonzero(cp_slm[:n_sw])[0]),
+        schedules_done={i: int(v) for i, v in enumerate(cp_sd)
+                        if v >= 0 and i < len(compiled.transitions)},
+        last_step=float(cp_f[1]) if cp_f[1] > 0 else None,
+        zeno_history={name: (int(cp_zc[key]), cp_zt[key, :min(int(cp_zc[key]), window)].tolist())
+                      for key, name in enumerate(prep.zeno_keys) if cp_zc[key]},
+        stats={"steps": int(kstats[0]), "refinements": int(kstats[1]),
+               "events_located": int(kstats[2]), "quiet_steps": int(kstats[4])},
+        triggers=[Trigger(int(r), float(cp_f[0]), bool(g))
+                  for r, g in zip(cp_rows, cp_graz, strict=True)] if kind == R_HANDLE else [])
+    result = engine.resume(compiled, checkpoint, p=p, options=o, t_end=t_end,
+                           deadline=kw.get("deadline"))
     t_hand = float(cp_f[0])
     stats: SimulationStats = {**result.stats, "backend": "compiled",
                               "compiled_cache_hit": prep.cache_hit,

@@ -28,12 +28,11 @@ import numpy as np
 
 from hybridlab.simulation.compiled.integrate import RK45
 from hybridlab.simulation.compiled.locate import GUARD, INVARIANT, SWITCH
+from hybridlab.simulation.compiled.opcodes import OP_GUARD_BOX, OP_INV_BOX, OP_SWITCH_BOX
 from hybridlab.simulation.compiled.signatures import borrowing, ptr
 
-__all__ = ["state_box", "quiet_step", "box_workspace", "OP_GUARD_BOX", "OP_INV_BOX",
-           "OP_SWITCH_BOX"]
+__all__ = ["state_box", "quiet_step", "box_workspace"]
 
-OP_GUARD_BOX, OP_INV_BOX, OP_SWITCH_BOX = 13, 14, 15
 _WIDEN = 2.0 ** -46  # as interval_ops: 64 units in the last place
 _TINY = 1e-300
 

@@ -7,7 +7,7 @@ body of a single scalar-loop function::
 
     model(op, group, t, x, p, sigma, f, out)
 
-``op`` selects the kind of function (:data:`OP_FLOW` ...), ``group`` which
+``op`` selects the kind of function (:mod:`.opcodes`), ``group`` which
 one (modes and transitions that share a function share a group). The *box*
 ops (:data:`OP_GUARD_BOX`, :data:`OP_INV_BOX`, :data:`OP_SWITCH_BOX`) enclose
 a transition's guard rows, a mode's invariants and its switching functions
@@ -32,28 +32,30 @@ import sympy as sp
 
 from hybridlab.model.checks import TIME
 from hybridlab.simulation.compiled.box_printer import box_body
+from hybridlab.simulation.compiled.opcodes import (
+    N_OPS,
+    OP_COND,
+    OP_COND_BOTH,
+    OP_COND_LIE,
+    OP_FLOW,
+    OP_FLOW_DSIGMA,
+    OP_GUARD,
+    OP_GUARD_BOX,
+    OP_GUARD_LIE,
+    OP_INV_BOX,
+    OP_RESET,
+    OP_SLIDE_PARTS,
+    OP_SWITCH,
+    OP_SWITCH_BOTH,
+    OP_SWITCH_BOX,
+    OP_SWITCH_GRAD,
+    OP_SWITCH_LIE,
+)
 from hybridlab.symbolic.compile import CompiledModel
 from hybridlab.symbolic.printing import PrintError, lower, scalar_printer
 
-__all__ = ["OP_FLOW", "OP_COND", "OP_COND_LIE", "OP_SWITCH", "OP_SWITCH_LIE", "OP_RESET",
-           "OP_GUARD", "OP_GUARD_LIE", "OP_SWITCH_GRAD", "OP_FLOW_DSIGMA", "OP_SLIDE_PARTS",
-           "OP_COND_BOTH", "OP_SWITCH_BOTH", "OP_GUARD_BOX", "OP_INV_BOX", "OP_SWITCH_BOX",
-           "ModelSource", "UnsupportedModel", "generate", "active_states"]
+__all__ = ["ModelSource", "UnsupportedModel", "generate", "active_states"]
 
-OP_FLOW, OP_COND, OP_COND_LIE, OP_SWITCH, OP_SWITCH_LIE, OP_RESET, OP_GUARD, OP_GUARD_LIE = \
-    range(8)
-#: sliding only: ``out[k*n + i] = d s_k / d x_i`` and ``out[i*m + k] = d f_i / d sigma_k``
-OP_SWITCH_GRAD, OP_FLOW_DSIGMA = 8, 9
-#: fused (one call, shared subexpressions): the flow, the switches' Lie derivatives along it,
-#: their gradient and the flow's sigma-Jacobian (``[f | ds/dt | grad | dsigma]``, per mode);
-#: condition values and Lie derivatives (``[g | dg/dt]``, cond groups); switch values and
-#: Lie derivatives (``[s | ds/dt]``, switch groups)
-OP_SLIDE_PARTS, OP_COND_BOTH, OP_SWITCH_BOTH = 10, 11, 12
-#: enclosures over a box, ``out = [lower | upper]``: a transition's guard rows (the groups of
-#: OP_GUARD), a mode's invariants (groups of their own) and its switching functions (the
-#: groups of OP_SWITCH)
-OP_GUARD_BOX, OP_INV_BOX, OP_SWITCH_BOX = 13, 14, 15
-_N_OPS = 16
 _BOX_OF = {OP_GUARD_BOX: OP_GUARD, OP_SWITCH_BOX: OP_SWITCH}
 _BOX_OPS = (OP_GUARD_BOX, OP_INV_BOX, OP_SWITCH_BOX)
 #: the generated module's name hashes its text: this digest makes it change with the
@@ -209,7 +211,7 @@ def generate(compiled: CompiledModel) -> ModelSource:
     base.update({s: f"p[{i}]" for i, s in enumerate(sym.parameters)})
     flow_syms = [sp.Symbol(f"_f{i}", real=True) for i in range(len(sym.states))]
     with_f = {**base, **{s: f"f[{i}]" for i, s in enumerate(flow_syms)}}
-    ops = [_Groups() for _ in range(_N_OPS)]
+    ops = [_Groups() for _ in range(N_OPS)]
     flow_g, cond_g, switch_g, grad_g, dsig_g, slide_g, free, inv_g = ([] for _ in range(8))
     for mode in compiled.modes.values():
         sig = {s.symbol: f"sigma[{k}]" for k, s in enumerate(mode.switches)}

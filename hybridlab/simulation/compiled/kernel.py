@@ -27,8 +27,6 @@ point, points, first step, steps).
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 
@@ -41,7 +39,22 @@ from hybridlab.simulation.compiled.integrate import (
     initial_step,
     rk_step,
 )
-from hybridlab.simulation.compiled.locate import EXIT, GUARD, INVARIANT, SWITCH, monitors_at, scan
+from hybridlab.simulation.compiled.locate import (
+    EXIT,
+    GUARD,
+    INVARIANT,
+    SWITCH,
+    monitors_at,
+    scan,
+    xtol_at,
+)
+from hybridlab.simulation.compiled.opcodes import (
+    OP_COND,
+    OP_COND_LIE,
+    OP_GUARD,
+    OP_GUARD_LIE,
+    OP_RESET,
+)
 from hybridlab.simulation.compiled.signatures import clock_at, interrupt_at, model_at, ptr
 from hybridlab.simulation.compiled.sliding import (
     OK,
@@ -52,6 +65,13 @@ from hybridlab.simulation.compiled.sliding import (
     rhs,
     update_switches,
     workspace,
+)
+from hybridlab.simulation.rules import (
+    DUE_WIDTH,
+    ENTRY_BAND,
+    RETRIGGER_BAND,
+    ZENO_RESOLUTION,
+    schedule_index,
 )
 
 __all__ = ["run_kernel", "COMPLETED", "ZENO", "MAX_EVENTS", "HANDOFF", "STEP_LIMIT", "TIME_LIMIT",
@@ -66,7 +86,6 @@ _WATCH_EVERY = 16
 #: where a hand-off resumes: from the start, at an event iteration without fresh guards,
 #: at the handling of a flow segment's triggers, at the start of a flow segment
 R_START, R_ITERATE, R_HANDLE, R_FLOW = 0, 1, 2, 3
-OP_COND, OP_COND_LIE, OP_RESET, OP_GUARD, OP_GUARD_LIE = 1, 2, 5, 6, 7
 _ITERATE, _HANDLE, _FLOW = 0, 1, 2
 
 
@@ -79,15 +98,8 @@ def _grow(a, n):
     return b
 
 
-@numba.njit(cache=True)
-def _xtol(event_tol, t):
-    return event_tol * max(1.0, abs(t))
-
-
-@numba.njit(cache=True)
-def _sched_index(period, phase, done, t):
-    k = math.ceil((t - phase) / period - 1e-9)
-    return max(k, done + 1, 0)
+#: :func:`hybridlab.simulation.rules.schedule_index`, compiled
+_sched_index = numba.njit(cache=True)(schedule_index)
 
 
 @numba.njit(cache=True)
@@ -328,7 +340,7 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
                             stop = True
                             break
                         if _zeno_stop(ztimes, zcount, sw_key[m * w_sw + k], t, window,
-                                      zeno_tol, 4 * event_tol, info):
+                                      zeno_tol, ZENO_RESOLUTION * event_tol, info):
                             last_t, last_m = t, m
                             last_x[:] = x
                             code = ZENO
@@ -345,12 +357,12 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
                 flowing = False  # the (equivalent) flow at (t, x) is in fcur: once per pass
                 for oi in range(out_ptr[m], out_ptr[m + 1]):
                     tr = out_list[oi]
-                    xt = _xtol(event_tol, t)
+                    xt = xtol_at(event_tol, t)
                     if tr_sched[tr] == 1:
                         if tr_sched_on[tr] == 0:
                             continue
-                        kk = _sched_index(period[tr], phase[tr], sched_done[tr], t)
-                        if abs(phase[tr] + kk * period[tr] - t) > 2 * xt:
+                        kk = _sched_index(t, phase[tr], period[tr], sched_done[tr])
+                        if abs(phase[tr] + kk * period[tr] - t) > DUE_WIDTH * xt:
                             continue
                         if tr_guard[tr] < 0:
                             chosen = tr
@@ -387,7 +399,7 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
                         slope = 0.0 if slope != slope else slope
                         xt_slope = 0.0
                     else:
-                        xt_slope = 8 * xt * abs(slope)
+                        xt_slope = RETRIGGER_BAND * xt * abs(slope)
                     if tr_sched[tr] == 1:
                         if value >= 0:
                             chosen = tr
@@ -425,11 +437,11 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
                 fired[chosen] = True
                 previous = chosen
                 if tr_sched[chosen] == 1:
-                    sched_done[chosen] = _sched_index(period[chosen], phase[chosen],
-                                                      sched_done[chosen], t)
+                    sched_done[chosen] = _sched_index(t, phase[chosen], period[chosen],
+                                                      sched_done[chosen])
                 else:
                     if _zeno_stop(ztimes, zcount, tr_zkey[chosen], t, window, zeno_tol,
-                                  4 * event_tol, info):
+                                  ZENO_RESOLUTION * event_tol, info):
                         last_t, last_m = t, target
                         last_x[:] = x
                         code = ZENO
@@ -452,8 +464,8 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
             for oi in range(out_ptr[m], out_ptr[m + 1]):
                 tr = out_list[oi]
                 if tr_sched[tr] == 1 and tr_sched_on[tr] == 1 and not fired[tr]:
-                    kk = _sched_index(period[tr], phase[tr], sched_done[tr], t)
-                    if abs(phase[tr] + kk * period[tr] - t) <= 2 * _xtol(event_tol, t):
+                    kk = _sched_index(t, phase[tr], period[tr], sched_done[tr])
+                    if abs(phase[tr] + kk * period[tr] - t) <= DUE_WIDTH * xtol_at(event_tol, t):
                         sched_done[tr] = kk
             last_t, last_m = t, m
             last_x[:] = x
@@ -483,9 +495,9 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
         for oi in range(out_ptr[m], out_ptr[m + 1]):
             tr = out_list[oi]
             if tr_sched[tr] == 1 and tr_sched_on[tr] == 1:
-                kk = _sched_index(period[tr], phase[tr], sched_done[tr], t)
+                kk = _sched_index(t, phase[tr], period[tr], sched_done[tr])
                 t_stop = min(t_stop, phase[tr] + kk * period[tr])
-        if t_stop - t > _xtol(event_tol, t):
+        if t_stop - t > xtol_at(event_tol, t):
             # ------------------------------------------------------------ flow segment
             cp_i[0], cp_i[1], cp_i[2], cp_i[3], cp_i[4] = R_FLOW, m, j, nev, nsg
             cp_f[0], cp_f[1] = t, h_last
@@ -532,7 +544,7 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
                 monitors_at(model, md, p, sig, ws, t, x, ws[1], phi0, dphi0, 0)
                 for r in range(M):
                     armed[r] = phi0[r, 0] > event_atol
-                    band = 16 * _xtol(event_tol, t) * abs(dphi0[r, 0]) + event_atol
+                    band = ENTRY_BAND * xtol_at(event_tol, t) * abs(dphi0[r, 0]) + event_atol
                     if not (armed[r] or (mk[r] == GUARD and dphi0[r, 0] <= 0)):
                         has_floor[r] = True
                         floors[r] = min(phi0[r, 0], 0.0) - band
@@ -648,8 +660,8 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
             for oi in range(out_ptr[m], out_ptr[m + 1]):
                 tr = out_list[oi]
                 if tr_sched[tr] == 1 and tr_sched_on[tr] == 1:
-                    kk = _sched_index(period[tr], phase[tr], sched_done[tr], t)
-                    if abs(phase[tr] + kk * period[tr] - t) <= 2 * _xtol(event_tol, t):
+                    kk = _sched_index(t, phase[tr], period[tr], sched_done[tr])
+                    if abs(phase[tr] + kk * period[tr] - t) <= DUE_WIDTH * xtol_at(event_tol, t):
                         due = True
         if t < t_end or due:
             action = _ITERATE  # the event iteration without fresh guards

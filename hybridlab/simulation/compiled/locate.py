@@ -18,16 +18,30 @@ import numba
 import numpy as np
 
 from hybridlab.simulation.compiled.integrate import RK45, dense_eval_at
+from hybridlab.simulation.compiled.opcodes import (
+    OP_COND,
+    OP_COND_BOTH,
+    OP_SWITCH,
+    OP_SWITCH_BOTH,
+)
 from hybridlab.simulation.compiled.signatures import borrowing, counted, ptr
 from hybridlab.simulation.compiled.sliding import equivalent_signs
+from hybridlab.simulation.rules import (
+    CHECK_AT,
+    CLUSTER_WIDTH,
+    LOCATE_ITERATIONS,
+    LOCATE_STEP,
+    MINIMUM_WIDTH,
+    event_time_tolerance,
+)
 
-__all__ = ["monitors_at", "monitor_value", "sample_step", "scan", "GUARD", "INVARIANT", "SWITCH",
-           "EXIT"]
+__all__ = ["monitors_at", "monitor_value", "sample_step", "scan", "xtol_at", "GUARD", "INVARIANT",
+           "SWITCH", "EXIT"]
 
-OP_FLOW, OP_COND, OP_SWITCH, OP_COND_BOTH, OP_SWITCH_BOTH = 0, 1, 3, 11, 12
 GUARD, INVARIANT, SWITCH, EXIT = 0, 1, 2, 3
-_CHECK_AT = 0.41421356237309515
 _EPS = np.finfo(np.float64).eps
+#: :func:`hybridlab.simulation.rules.event_time_tolerance`, compiled
+xtol_at = numba.njit(cache=True, inline="always")(event_time_tolerance)
 
 
 @numba.njit(cache=True)
@@ -270,7 +284,7 @@ def sample_step(model, md, p, sig, ws, step, t0, t1, samples, max_refine, tol):
     a_idx = np.arange(samples)
     b_idx = np.arange(1, samples + 1)
     refinements = 0
-    q = _CHECK_AT
+    q = CHECK_AT
     for level in range(max_refine + 1):
         K = a_idx.size
         if M == 0 or K == 0:
@@ -434,17 +448,18 @@ def _locate(model, md, p, sig, ws, step, r, level, lo, hi, f_hi, xtol):
     pr = probe(md, p, sig, ws, step, r)
     if f_hi == 0.0 or hi - lo <= xtol:
         return hi
-    root = _brentq(model, md, p, sig, ws, step, r, level, lo, hi, 0.25 * xtol, 4 * _EPS, 200)
+    root = _brentq(model, md, p, sig, ws, step, r, level, lo, hi, LOCATE_STEP * xtol, 4 * _EPS,
+                   LOCATE_ITERATIONS)
     for j in range(3):
-        cand = root + 0.25 * j * xtol
+        cand = root + j * LOCATE_STEP * xtol
         if cand >= hi:
             return hi
         if probe_value(model, pr, cand) - level <= 0:
             return cand
-    lo2 = max(lo, root - 0.5 * xtol)
+    lo2 = max(lo, root - 2 * LOCATE_STEP * xtol)
     if probe_value(model, pr, lo2) - level > 0:
         lo = lo2
-    for _ in range(200):
+    for _ in range(LOCATE_ITERATIONS):
         if hi - lo <= xtol:
             break
         mid = 0.5 * (lo + hi)
@@ -544,7 +559,7 @@ def _search(model, md, p, sig, ws, step, r, cand, tau, phi, lo_val, lo_s, t_from
         if f_b <= 0 and not (0.0 < lo_s[k] < 1.0 and lo_val[k] < phi[k + 1]):
             t_min, f_min = b, f_b
         else:
-            xatol = max(xtol, 1e-15 * max(abs(a), abs(b), 1.0))
+            xatol = max(xtol, MINIMUM_WIDTH * max(abs(a), abs(b), 1.0))
             t_min, f_min = _fminbound(model, md, p, sig, ws, step, r, level, a, b, xatol)
             guess = a + lo_s[k] * (b - a)
             f_guess = probe_value(model, pr, guess) - level
@@ -649,8 +664,8 @@ def scan(model, md, p, sig, ws, step, armed, has_floor, floors, t0, t1, samples,
     tau, phi, dphi, refinements = sample_step(model, md, p, sig, ws, step, t0, t1, samples,
                                               max_refine, tol)
     stats[1] += refinements
-    xtol = event_tol * max(1.0, min(abs(t0), abs(t1)))
-    width = 8 * xtol
+    xtol = xtol_at(event_tol, min(abs(t0), abs(t1)))
+    width = CLUSTER_WIDTH * xtol
     K = tau.size - 1
     starts = np.full(M, np.inf)
     use = np.zeros(M, dtype=np.bool_)

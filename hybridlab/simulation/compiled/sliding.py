@@ -35,16 +35,21 @@ import math
 import numba
 import numpy as np
 
+from hybridlab.simulation.compiled.opcodes import (
+    OP_FLOW,
+    OP_SLIDE_PARTS,
+    OP_SWITCH,
+    OP_SWITCH_GRAD,
+    OP_SWITCH_LIE,
+)
 from hybridlab.simulation.compiled.signatures import borrowing, ptr, ptr_at
+from hybridlab.simulation.rules import EQUAL_SLOPES, EQUIVALENT_SIGN_SLACK
 
 __all__ = ["workspace", "flag_index", "equivalent", "equivalent_signs", "flow_sliding",
            "flow_eq", "rhs", "enter_mode", "resolve", "update_switches", "active_indices", "OK",
            "NOT_AFFINE", "SINGULAR"]
 
-OP_FLOW, OP_SWITCH, OP_SWITCH_LIE, OP_SWITCH_GRAD, OP_FLOW_DSIGMA, OP_SLIDE_PARTS = \
-    0, 3, 4, 8, 9, 10
 OK, NOT_AFFINE, SINGULAR = 0, 1, 2
-_EQ_SLACK = 1e-12
 
 
 @numba.njit(cache=True, inline="always")
@@ -299,7 +304,7 @@ def resolve(model, fc, affine, t, x, p, sig, at_surface, forced, forced_value, s
     for k in range(m):
         if slm[k]:
             d_plus, d_minus = _sides(model, fc, t, x, p, sig, k, f, lie, tmp)
-            if abs(d_plus - d_minus) <= 1e-14 * (abs(d_plus) + abs(d_minus)):
+            if abs(d_plus - d_minus) <= EQUAL_SLOPES * (abs(d_plus) + abs(d_minus)):
                 _leave(sig, previous, slm, k, d_plus, d_minus)
     count = active_indices(slm, m).size
     dp = np.empty(m)
@@ -319,7 +324,7 @@ def resolve(model, fc, affine, t, x, p, sig, at_surface, forced, forced_value, s
         for a in range(idx.size):
             sig[idx[a]] = eq[a]
         for a in range(idx.size):
-            if abs(eq[a]) > 1 + _EQ_SLACK:
+            if abs(eq[a]) > 1 + EQUIVALENT_SIGN_SLACK:
                 sig[idx[a]] = math.copysign(1.0, sig[idx[a]])
                 slm[idx[a]] = False
                 outside = True
