@@ -243,7 +243,7 @@ class _Analysis:
         for spec in self.stop_unproved:
             lower = spec.lower_on(rs)
             if lower is not None and not spec.holds(lower):
-                raise _Budget(f"stopped at the first set that does not prove spec "
+                raise _Unproved(f"stopped at the first set that does not prove spec "
                               f"{spec.text!r} (t in [{rs.t[0]:.6g}, {rs.t[1]:.6g}] in mode "
                               f"{rs.mode!r}, bound {lower:.6g})")
         if len(self.records) > self.options.max_sets:
@@ -564,6 +564,10 @@ class _Budget(Exception):  # noqa: N818 - a signal, not an error
     pass
 
 
+class _Unproved(_Budget):
+    """A set does not prove one of the specs the analysis was asked to stop on."""
+
+
 def run_analysis(system: System, options: ReachOptions, mode: str, P0: Zonotope,
                  t_start: float, t_end: float, p: np.ndarray,
                  stop_unproved: Sequence[Spec] = ()) -> ReachResult:
@@ -591,10 +595,12 @@ def run_analysis(system: System, options: ReachOptions, mode: str, P0: Zonotope,
     started = _time.perf_counter()
     analysis = _Analysis(system, options, t_start, t_end, p, stop_unproved)
     analysis.push(None, mode, P0, t_start, t_start, 0)
+    stopped = False
     try:
         analysis.run()
     except _Budget as exc:
         analysis._reason(str(exc))
+        stopped = isinstance(exc, _Unproved)
     if analysis.shown:
         print(file=sys.stderr)  # end the progress line
-    return analysis.finish(started)
+    return replace(analysis.finish(started), stopped_unproved=stopped)

@@ -207,6 +207,9 @@ class ReachResult:
         ``(t_start, t_end)``.
     options : ReachOptions
         The settings used (with the step filled in).
+    stopped_unproved : bool
+        The analysis ended at a set that does not prove one of the specs it was
+        asked to stop on (``stop_unproved``).
 
     Examples
     --------
@@ -235,6 +238,7 @@ class ReachResult:
     state_names: tuple[str, ...] = ()
     t_span: tuple[float, float] = (0.0, 0.0)
     options: ReachOptions = field(default_factory=ReachOptions, repr=False)
+    stopped_unproved: bool = False
 
     def __repr__(self) -> str:
         bounds = ", ".join(f"{k}: [{lo:.6g}, {hi:.6g}]" for k, (lo, hi) in self.bounds.items())
@@ -360,4 +364,5 @@ def merge_results(results: Sequence[ReachResult]) -> ReachResult:
         reachable_modes=frozenset().union(*(r.reachable_modes for r in results)),
         complete=all(r.complete for r in results), incomplete_reasons=reasons,
         fixpoint=all(r.fixpoint for r in results), time_s=sum(r.time_s for r in results),
-        state_names=first.state_names, t_span=first.t_span, options=first.options)
+        state_names=first.state_names, t_span=first.t_span, options=first.options,
+        stopped_unproved=any(r.stopped_unproved for r in results))

@@ -524,7 +524,8 @@ class Zonotope:
 
         Rows the zonotope satisfies everywhere are dropped; rows that are all
         parallel form one slab (:meth:`bounds_in_slab`, no LP); otherwise by
-        ``2 n`` LPs over the generator factors (HiGHS).
+        ``2 n`` LPs over the generator factors (HiGHS), whose values are certified by
+        weak duality (:func:`~hybridlab.reachability.lp.cut_bounds`).
         Returns ``None`` when the intersection is empty. ``dims`` selects the
         coordinates to bound by LP (all by default).
         """
@@ -544,26 +545,15 @@ class Zonotope:
         slab = _as_slab(A, b)
         if slab is not None:
             return self.bounds_in_slab(*slab)
-        from scipy.optimize import linprog
+        from hybridlab.reachability.lp import cut_bounds
 
-        A_ub, b_ub = A @ G, b - A @ c
-        for i in range(self.dim) if dims is None else dims:
-            if not np.any(G[i]):
-                continue
-            for sign, col in ((1.0, 0), (-1.0, 1)):
-                res = linprog(sign * G[i], A_ub=A_ub, b_ub=b_ub, bounds=[(-1, 1)] * m,
-                              method="highs")
-                if res.status == 2:
-                    return None
-                if res.status != 0:
-                    raise SetError(f"LP for the bounds of an intersection failed: {res.message}")
-                # HiGHS solves to ~1e-9 feasibility: widen by that much, never shrink past Z
-                value = c[i] + sign * res.fun
-                slack = 1e-9 * (1.0 + abs(value) + float(np.sum(np.abs(G[i]))))
-                if col == 0:
-                    out[i, 0] = max(out[i, 0], value - slack)
-                else:
-                    out[i, 1] = min(out[i, 1], value + slack)
+        cut = cut_bounds(c, G, A, b, dims)
+        if cut is None:
+            return None
+        out[:, 0] = np.maximum(out[:, 0], cut[:, 0])
+        out[:, 1] = np.minimum(out[:, 1], cut[:, 1])
+        if np.any(out[:, 0] > out[:, 1]):
+            return None
         return out
 
 

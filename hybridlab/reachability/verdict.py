@@ -321,6 +321,7 @@ def check(
                        falsification=found, time_s=time.perf_counter() - started)
 
     from hybridlab.reachability import reach  # the flowpipes: a sibling module
+    from hybridlab.reachability.api import step_for_dwell
 
     # refinements where the flowpipes prove too little, each only if the caller left that
     # knob alone: the step halved while each halving tightens the failing bound, then the
@@ -337,12 +338,15 @@ def check(
 
     tried: list[str] = []  # the refinements run, for the reason
 
-    def attempt(stage: dict[str, Any], until: float | None = None) -> _Attempt:
-        if stage:
+    def attempt(stage: dict[str, Any], until: float | None = None, *,
+                stop: bool = False, again: bool = False) -> _Attempt:
+        """One analysis; ``until`` or ``stop``: it ends at the first set that does not
+        prove every spec; ``again``: a stage already counted in ``tried``."""
+        if stage and not again:
             tried.append(_describe(stage))
         extra = {} if until is None else {"deadline": until}
         result = reach(problem, options=options, executor=executor,
-                       stop_unproved=specs if until is not None else (),
+                       stop_unproved=specs if until is not None or stop else (),
                        **{**overrides, **stage, **extra})
         return _Attempt.of(specs, result, stage)
 
@@ -363,14 +367,20 @@ def check(
     unsafe = _unsafe(found, texts, started)
     if unsafe is not None:
         return unsafe
+    horizon = problem.t_end - problem.t_start
+    same_step = True  # the full attempt would take the quick attempt's step
     if not (step_chosen or dwell_known) and found.most_jumps:
         # the busiest simulated run's dwell sets the default step (see default_step)
-        overrides["dwell"] = (problem.t_end - problem.t_start) / (found.most_jumps + 1)
-    # the quick attempt stops at its first unproved set, so it stands only where the
-    # caller's whole time budget is spent anyway
+        overrides["dwell"] = horizon / (found.most_jumps + 1)
+        same_step = quick is not None and quick.step == step_for_dwell(
+            quick.step, horizon, overrides["dwell"])
+    # the quick attempt stops at its first unproved set, so it stands where the caller's
+    # whole time budget is spent anyway, and where the full attempt would repeat it up to
+    # that set: the refinements below start from it
     stands = deadline is not None and time.time() >= deadline
+    repeats = quick is not None and quick.result.stopped_unproved and same_step
     try:
-        best = quick if quick is not None and stands else attempt({})
+        best = quick if quick is not None and (stands or repeats) else attempt({})
     except failures as exc:
         found = search.local()
         unsafe = _unsafe(found, texts, started)
@@ -382,20 +392,23 @@ def check(
                        f"{_evidence(found)}",
                        falsification=found, time_s=time.perf_counter() - started)
     try:  # a refinement that fails leaves the result before it standing
-        if best.open and not step_chosen:
+        if best.unproved and not step_chosen:
             step = best.step
             stalled = 0  # halvings in a row that did not tighten the failing bound
             for _ in range(_STEP_HALVINGS):
                 step /= 2
-                finer = attempt({**best.stage, "step": step})
-                if not finer.result.complete:
-                    break  # out of budget: the coarser complete result stands
+                # (a halving that does not prove ends at its first unproved set)
+                finer = attempt({**best.stage, "step": step}, stop=True)
+                if not (finer.result.complete or finer.result.stopped_unproved):
+                    break  # out of budget: the coarser result stands
                 improved = finer.lower > best.lower
                 stalled = 0 if improved else stalled + 1
                 if improved or finer.proved:
                     best = finer
-                if not best.open or stalled == _STEP_PATIENCE:
+                if not best.unproved or stalled == _STEP_PATIENCE:
                     break
+        if best.result.stopped_unproved and not stands:
+            best = attempt(best.stage, again=True)  # the whole flowpipe, for what follows
         if best.open and best.jumped and not clustering_chosen:
             clustered = attempt({**best.stage, "clustering": "auto"})
             if clustered.proved and clustered.result.complete or clustered.lower > best.lower:
@@ -472,6 +485,11 @@ class _Attempt:
     def open(self) -> bool:
         """Complete, yet not proved: what a refinement may settle."""
         return self.result.complete and not self.proved
+
+    @property
+    def unproved(self) -> bool:
+        """Open, or stopped at a set that does not prove a spec."""
+        return not self.proved and (self.result.complete or self.result.stopped_unproved)
 
     def refinement(self) -> str:
         """The reason's note of the refinements this attempt used ("" for none)."""
