@@ -98,3 +98,27 @@ def test_csv_without_phase_and_cli(tmp_path, capsys) -> None:
     args = parser.parse_args(["identify", "mass", str(tmp_path / "bad.csv")])
     with pytest.raises(ValueError, match="missing column.*magnitude_db"):
         args.run(args)
+
+
+@pytest.mark.parametrize("n", [40, 500, 5000])
+def test_local_slopes_equal_a_fit_per_window_with_work_linear_in_the_rows(n, monkeypatch):
+    from hybridlab.identify import frequency
+
+    rng = np.random.default_rng(n)
+    f = np.sort(10 ** rng.uniform(0, 3, n))
+    y = -40 * np.log10(f) + rng.normal(size=n)
+    x, half = np.log10(f), 0.1 * (1 + 1e-9)
+    lo, hi = np.searchsorted(x, x - half), np.searchsorted(x, x + half, side="right")
+    check = rng.choice(n, size=min(n, 200), replace=False)
+    expected = [frequency._line(x[lo[i]:hi[i]], y[lo[i]:hi[i]])[1] if hi[i] - lo[i] >= 3
+                else np.nan for i in check]
+    fits = []
+    direct = frequency._line
+    monkeypatch.setattr(frequency, "_line", lambda *a: fits.append(1) or direct(*a))
+    got = frequency.local_slopes(f, y)
+    np.testing.assert_allclose(got[check], expected, rtol=1e-8, atol=1e-8)
+    # only windows of fewer than 64 points are fitted one by one: dense data costs O(n)
+    count = hi - lo
+    assert len(fits) == int(np.sum((count >= 3) & (count < 64)))
+    if n == 5000:
+        assert len(fits) < n / 20

@@ -49,10 +49,10 @@ def test_cut_bounds_contain_every_feasible_point_and_match_the_lp(seed):
     assert np.all(out[:, 1] - exact[:, 1] <= 1e-9 * scale[:, 1])
     beta = rng.uniform(-1.0, 1.0, size=(G.shape[1], 20000))
     X = c[:, None] + G @ beta
-    inside = np.all(A @ X <= b[:, None], axis=0)
+    inside = np.all(b[:, None] >= A @ X, axis=0)
     assert inside.any()
     X = X[:, inside]
-    assert np.all(X >= out[:, :1]) and np.all(X <= out[:, 1:])
+    assert np.all(out[:, :1] <= X) and np.all(out[:, 1:] >= X)
 
 
 def test_any_nonnegative_dual_gives_a_valid_bound_only_looser():
