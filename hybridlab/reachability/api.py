@@ -29,7 +29,7 @@ from hybridlab.simulation.executors import (
 from hybridlab.simulation.problem import HybridProblem, ProblemError
 from hybridlab.symbolic.compile import CompiledModel
 
-__all__ = ["ReachError", "default_step", "step_for_dwell", "reach"]
+__all__ = ["ReachError", "default_step", "reach"]
 
 
 class ReachError(HybridlabError, ValueError):
@@ -252,19 +252,9 @@ def default_step(system: System, horizon: float, dwell: float | None = None) -> 
             turn = max(turn, float(np.max(np.abs(lam.imag[light]))))
     if turn > 0.0:
         step = max(min(step, _MAX_TURN / turn), horizon / _MAX_DEFAULT_STEPS)
-    return step if dwell is None else step_for_dwell(step, horizon, dwell)
-
-
-def step_for_dwell(step: float, horizon: float, dwell: float) -> float:
-    """``step`` shortened so that a typical ``dwell`` between jumps has 16 steps (but not
-    below ``horizon / 40000``): the last rule of :func:`default_step`.
-
-    Examples
-    --------
-    >>> step_for_dwell(0.75, 300.0, 100.0), step_for_dwell(0.75, 300.0, 4.0)
-    (0.75, 0.25)
-    """
-    return max(min(step, dwell / _STEPS_PER_DWELL), horizon / _MAX_DWELL_STEPS)
+    if dwell is not None:
+        step = max(min(step, dwell / _STEPS_PER_DWELL), horizon / _MAX_DWELL_STEPS)
+    return step
 
 
 def _gather(futures: list[Any]) -> list[ReachResult]:

@@ -49,9 +49,9 @@ _REFERENCE_STEPS = 200
 """Integrator steps a falsification run may take on the reference engine, and ..."""
 _REFERENCE_TOTAL_STEPS = 600
 """... the steps all of them may take, before the search moves to the compiled kernel
-(whose loading costs about as much as 600 reference steps). The search moves as soon as
-the runs still planned, at the steps of the last one, would pass it. Counted in steps, not
-seconds, so that which engine runs which simulation is deterministic."""
+(whose loading costs about as much as 600 reference steps, and compiling a model not yet
+in the cache much more). Counted in steps, not seconds, so that which engine runs which
+simulation is deterministic."""
 
 
 def run_point(problem: HybridProblem, x0: np.ndarray, p: np.ndarray,
@@ -414,7 +414,6 @@ class FalsificationSearch:
         # is falsified without loading the compiled kernel (only under backend="auto",
         # and only while this process has not loaded the kernel anyway)
         self._reference_steps = 0 if _reference_first(problem) else None
-        self._runs_ahead = 0  # the runs the current stage still plans after this one
 
     def sample(self) -> Falsification:
         """Simulate the centre, the corners and the Latin-hypercube samples."""
@@ -435,9 +434,7 @@ class FalsificationSearch:
         return self._found
 
     def _sample(self) -> Counterexample | None:
-        plan = _sample_plan(self.problem.dims, self.options, self._rng)
-        for k, u in enumerate(plan):
-            self._runs_ahead = len(plan) - k - 1
+        for u in _sample_plan(self.problem.dims, self.options, self._rng):
             evaluated = self._evaluate(u)
             if evaluated is not None and any(m.violation_t is not None for m in evaluated[0]):
                 return self._counterexample(u, evaluated)
@@ -450,7 +447,6 @@ class FalsificationSearch:
         for i in range(len(self.specs)):
             starts = sorted(self._best_u[i], key=lambda item: item[0])[:self.options.local_starts]
             for _, u0 in starts:
-                self._runs_ahead = self.options.local_evals
                 found = _local_search(i, u0, d, self.options.local_evals, self._evaluate)
                 if found is not None:
                     return self._counterexample(*found)
@@ -481,9 +477,8 @@ class FalsificationSearch:
             short = replace(options, backend="reference",
                             max_steps=min(options.max_steps, _REFERENCE_STEPS))
             result = run_point(self.problem, x0, p, short)
-            steps = int(result.stats.get("steps", 0))
-            self._reference_steps += steps
-            if self._reference_steps + steps * self._runs_ahead > _REFERENCE_TOTAL_STEPS:
+            self._reference_steps += int(result.stats.get("steps", 0))
+            if self._reference_steps > _REFERENCE_TOTAL_STEPS:
                 self._reference_steps = None  # from the next run on: the compiled kernel
             if result.status is not Status.STEP_LIMIT or options.max_steps <= _REFERENCE_STEPS:
                 return result

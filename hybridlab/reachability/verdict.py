@@ -321,7 +321,6 @@ def check(
                        falsification=found, time_s=time.perf_counter() - started)
 
     from hybridlab.reachability import reach  # the flowpipes: a sibling module
-    from hybridlab.reachability.api import step_for_dwell
 
     # refinements where the flowpipes prove too little, each only if the caller left that
     # knob alone: the step halved while each halving tightens the failing bound, then the
@@ -367,20 +366,14 @@ def check(
     unsafe = _unsafe(found, texts, started)
     if unsafe is not None:
         return unsafe
-    horizon = problem.t_end - problem.t_start
-    same_step = True  # the full attempt would take the quick attempt's step
     if not (step_chosen or dwell_known) and found.most_jumps:
         # the busiest simulated run's dwell sets the default step (see default_step)
-        overrides["dwell"] = horizon / (found.most_jumps + 1)
-        same_step = quick is not None and quick.step == step_for_dwell(
-            quick.step, horizon, overrides["dwell"])
-    # the quick attempt stops at its first unproved set, so it stands where the caller's
-    # whole time budget is spent anyway, and where the full attempt would repeat it up to
-    # that set: the refinements below start from it
+        overrides["dwell"] = (problem.t_end - problem.t_start) / (found.most_jumps + 1)
+    # the quick attempt stops at its first unproved set, so it stands only where the
+    # caller's whole time budget is spent anyway
     stands = deadline is not None and time.time() >= deadline
-    repeats = quick is not None and quick.result.stopped_unproved and same_step
     try:
-        best = quick if quick is not None and (stands or repeats) else attempt({})
+        best = quick if quick is not None and stands else attempt({})
     except failures as exc:
         found = search.local()
         unsafe = _unsafe(found, texts, started)
@@ -392,7 +385,7 @@ def check(
                        f"{_evidence(found)}",
                        falsification=found, time_s=time.perf_counter() - started)
     try:  # a refinement that fails leaves the result before it standing
-        if best.unproved and not step_chosen:
+        if best.open and not step_chosen:
             step = best.step
             stalled = 0  # halvings in a row that did not tighten the failing bound
             for _ in range(_STEP_HALVINGS):

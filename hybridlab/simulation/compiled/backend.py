@@ -62,6 +62,7 @@ from hybridlab.simulation.compiled.kernel import (
     ZENO,
     run_kernel,
 )
+from hybridlab.simulation.compiled.layout import KernelResult, ModelTables
 from hybridlab.simulation.compiled.signatures import watch_addresses
 from hybridlab.simulation.location import Trigger
 from hybridlab.simulation.options import SimulationOptions
@@ -75,7 +76,7 @@ __all__ = ["cache_dir", "prepare", "run", "Prepared", "StepInterpolants"]
 
 #: the modules whose numba functions and constants make up the kernel, relative to
 #: ``hybridlab/simulation``
-_KERNEL_SOURCES = ("compiled/signatures", "compiled/opcodes", "compiled/sliding",
+_KERNEL_SOURCES = ("compiled/signatures", "compiled/opcodes", "compiled/layout", "compiled/sliding",
                    "compiled/integrate", "compiled/locate", "compiled/bounds", "compiled/kernel",
                    "rules")
 
@@ -240,7 +241,7 @@ class Prepared:
     source: ModelSource
     module: ModuleType
     cache_hit: bool
-    ints: tuple[np.ndarray, ...]
+    tables: ModelTables
     mode_names: tuple[str, ...]
     zeno_keys: tuple[str, ...]
     n_sig: int
@@ -279,7 +280,7 @@ class Prepared:
         return entry
 
     def schedule_tables(self, p: np.ndarray) -> tuple[tuple, tuple]:
-        """The kernel's ``ints`` and ``reals`` for parameters ``p``.
+        """The kernel's :class:`~.layout.ModelTables` and ``reals`` for parameters ``p``.
 
         Only the scheduled transitions are evaluated, and the tables of the
         last parameter vector are kept: runs of one model with the same
@@ -291,7 +292,6 @@ class Prepared:
         tables = self.last_schedule.get(key)
         if tables is None:
             n = max(len(self.jump_labels), 1)
-            ints = list(self.ints)
             period, phase = np.ones(n), np.zeros(n)
             sched_on = np.zeros(n, dtype=np.int64)
             for tr in self.scheduled:
@@ -299,14 +299,12 @@ class Prepared:
                 if sched is not None:
                     period[tr.index], phase[tr.index] = sched
                     sched_on[tr.index] = 1
-            ints[_SCHED_ON] = sched_on
-            tables = (tuple(ints), (period, phase))
+            tables = (self.tables._replace(tr_schedule_on=sched_on), (period, phase))
             self.last_schedule.clear()
             self.last_schedule[key] = tables
         return tables
 
 
-_SCHED_ON = 15  # index of the per-run "schedule enabled" table in Prepared.ints
 _PREPARED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # per-model memo
 _SLOW: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # models too slow to compile
 
@@ -484,7 +482,7 @@ def prepare(compiled: CompiledModel, max_lines: int | None = None) -> Prepared:
         if tr.guard is not None:
             monitored[max(n_tr, 1) + tr.index] = tr.guard.size
             monitored[tr.index] = int(not tr.scheduled)
-    ints = tuple(np.ascontiguousarray(a, dtype=np.int64) for a in (
+    tables = ModelTables(*(np.ascontiguousarray(a, dtype=np.int64) for a in (
         source.flow_group, source.cond_group, source.switch_group, source.grad_group,
         source.dsigma_group,
         [md.invariant_offset for md in modes], [md.invariants.size for md in modes],
@@ -495,12 +493,12 @@ def prepare(compiled: CompiledModel, max_lines: int | None = None) -> Prepared:
         [0] * max(n_tr, 1), list(source.reset_group) or [0], sw_key, tr_zkey or [0],
         [md.conditions.size if md.conditions is not None else 0 for md in modes],
         source.slide_group, source.switch_free, *active_states(compiled),
-        source.invariant_group))
+        source.invariant_group)))
     unscheduled = None
     if all(tr.schedule is None for tr in compiled.transitions):
         # (not flagged read-only: numba would type, and compile, the kernel anew for that)
-        unscheduled = (ints, (np.ones(max(n_tr, 1)), np.zeros(max(n_tr, 1))))
-    prepared = Prepared(source, module, hit, ints, tuple(compiled.modes), tuple(keys), n_sig,
+        unscheduled = (tables, (np.ones(max(n_tr, 1)), np.zeros(max(n_tr, 1))))
+    prepared = Prepared(source, module, hit, tables, tuple(compiled.modes), tuple(keys), n_sig,
                         tuple(tr.name for tr in compiled.transitions),
                         tuple(tuple(sw.text for sw in md.switches) for md in modes), unscheduled,
                         tuple(tr for tr in compiled.transitions if tr.scheduled))
@@ -548,7 +546,7 @@ def run(compiled: CompiledModel, *, t0: float, x0: np.ndarray, mode: str, t_end:
     except UnsupportedModel as exc:
         return _fallback(compiled, f"unsupported model: {exc}", **kw)
     n_tr = len(compiled.transitions)
-    ints, reals = prep.schedule_tables(np.ascontiguousarray(p, dtype=float))
+    tables, reals = prep.schedule_tables(np.ascontiguousarray(p, dtype=float))
     method = METHOD_CODES[o.method]
     opts_i = np.array([method, o.samples_per_step, o.max_refine, o.max_events,
                        o.max_event_iterations, o.zeno_window, int(o.prove_quiet_steps)],
@@ -567,19 +565,19 @@ def run(compiled: CompiledModel, *, t0: float, x0: np.ndarray, mode: str, t_end:
     watch = np.array([o.max_steps, interrupt_address, clock_address,
                       getattr(time, "CLOCK_MONOTONIC", 1), deadline or 0], dtype=np.int64)
     # the generated functions by address (prep.module keeps them alive)
-    args = (prep.module.model.address, prep.module.box.address, ints, reals, opts_i, opts_f,
+    args = (prep.module.model.address, prep.module.box.address, tables, reals, opts_i, opts_f,
             float(t0), np.ascontiguousarray(x0, dtype=float), m0, float(t_end),
             np.ascontiguousarray(p, dtype=float), prep.n_sig, ztimes, zcount, sched_done, watch)
     entry = prep.kernel_entry(args)  # (compiles the kernel on a cold cache)
     if deadline is not None:  # the limit counts the run, not the compilation
         deadline = engine.deadline_of(o)
         watch[4] = deadline or 0  # (not None: o.time_limit is set)
-    out = entry(*args)
-    code, EV, PT, ST, SG, kstats, info, last_t, last_x, last_m, j = out[:11]
-    if code == HANDOFF:
+    out: KernelResult = entry(*args)
+    if out.code == HANDOFF:
         return _hand_off(compiled, prep, o, out, p, float(t_end), {**kw, "deadline": deadline})
-    return _result(compiled, prep, o, code, EV, PT, ST, SG, kstats, info, last_t, last_x,
-                   last_m, j, p, float(t_end))
+    return _result(compiled, prep, o, out.code, out.events, out.points, out.steps,
+                   out.segments, out.stats, out.info, out.t, out.x, out.mode, out.jumps, p,
+                   float(t_end))
 
 
 @cache
@@ -592,34 +590,35 @@ _ENTRIES: dict[int, Literal["iterate", "handle", "flow"]] = {
     R_ITERATE: "iterate", R_HANDLE: "handle", R_FLOW: "flow"}
 
 
-def _hand_off(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, out: tuple,
-              p: np.ndarray, t_end: float, kw: dict) -> SimulationResult:
+def _hand_off(compiled: CompiledModel, prep: Prepared, o: SimulationOptions,
+              out: KernelResult, p: np.ndarray, t_end: float, kw: dict) -> SimulationResult:
     """Continue a run on the reference engine from the kernel's checkpoint."""
-    (_, EV, PT, ST, SG, kstats, _, _, _, _, _, _, cp_i, cp_f, cp_x, cp_sig, cp_slm, cp_zt,
-     cp_zc, cp_sd, cp_rows, cp_graz) = out
-    kind, m, j, nev, nsg = (int(v) for v in cp_i[:5])
+    cp, kstats = out.checkpoint, out.stats
+    kind, m, j, nev, nsg = (int(v) for v in cp.position[:5])
     if kind == R_START:
         return _fallback(compiled, "the kernel could not enter the initial mode", **kw)
     mode = prep.mode_names[m]
-    events, segments = _records(compiled, prep, o, EV[:nev], PT, ST, SG[:nsg])
+    events, segments = _records(compiled, prep, o, out.events[:nev], out.points, out.steps,
+                                out.segments[:nsg])
     n_sw = len(compiled.modes[mode].switches)
     window = o.zeno_window + 1
     checkpoint = engine.Checkpoint(
-        t=float(cp_f[0]), x=cp_x.copy(), mode=mode, entry=_ENTRIES[kind], jumps=j,
-        events=list(events), segments=list(segments), sigma=cp_sig[:n_sw].copy(),
-        sliding=tuple(int(k) for k in np.nonzero(cp_slm[:n_sw])[0]),
-        schedules_done={i: int(v) for i, v in enumerate(cp_sd)
+        t=float(cp.times[0]), x=cp.x.copy(), mode=mode, entry=_ENTRIES[kind], jumps=j,
+        events=list(events), segments=list(segments), sigma=cp.sigma[:n_sw].copy(),
+        sliding=tuple(int(k) for k in np.nonzero(cp.sliding[:n_sw])[0]),
+        schedules_done={i: int(v) for i, v in enumerate(cp.schedules_done)
                         if v >= 0 and i < len(compiled.transitions)},
-        last_step=float(cp_f[1]) if cp_f[1] > 0 else None,
-        zeno_history={name: (int(cp_zc[key]), cp_zt[key, :min(int(cp_zc[key]), window)].tolist())
-                      for key, name in enumerate(prep.zeno_keys) if cp_zc[key]},
+        last_step=float(cp.times[1]) if cp.times[1] > 0 else None,
+        zeno_history={name: (int(cp.zeno_counts[key]),
+                             cp.zeno_times[key, :min(int(cp.zeno_counts[key]), window)].tolist())
+                      for key, name in enumerate(prep.zeno_keys) if cp.zeno_counts[key]},
         stats={"steps": int(kstats[0]), "refinements": int(kstats[1]),
                "events_located": int(kstats[2]), "quiet_steps": int(kstats[4])},
-        triggers=[Trigger(int(r), float(cp_f[0]), bool(g))
-                  for r, g in zip(cp_rows, cp_graz, strict=True)] if kind == R_HANDLE else [])
+        triggers=[Trigger(int(r), float(cp.times[0]), bool(g))
+                  for r, g in zip(cp.rows, cp.grazing, strict=True)] if kind == R_HANDLE else [])
     result = engine.resume(compiled, checkpoint, p=p, options=o, t_end=t_end,
                            deadline=kw.get("deadline"))
-    t_hand = float(cp_f[0])
+    t_hand = float(cp.times[0])
     stats: SimulationStats = {**result.stats, "backend": "compiled",
                               "compiled_cache_hit": prep.cache_hit,
                               "handoff": f"the reference engine continued from t = {t_hand!r} "

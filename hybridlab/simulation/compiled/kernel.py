@@ -39,6 +39,7 @@ from hybridlab.simulation.compiled.integrate import (
     initial_step,
     rk_step,
 )
+from hybridlab.simulation.compiled.layout import KernelCheckpoint, KernelResult
 from hybridlab.simulation.compiled.locate import (
     EXIT,
     GUARD,
@@ -143,13 +144,13 @@ def _zeno_stop(ztimes, zcount, key, t, window, tol, resolution, info):
 
 
 @numba.njit(cache=True)
-def _fc(ints, m, slm, W):
+def _fc(tables, m, slm, W):
     """The flow context of mode ``m`` with the sliding set ``slm`` (see :mod:`.sliding`)."""
-    ns = ints[7][m]
+    ns = tables.n_switches[m]
     sl = active_indices(slm, ns)
-    act = ints[23][ints[22][m]:ints[22][m + 1]]
-    return (ints[0][m], ints[2][m], ints[3][m], ints[4][m], ns, sl, W, ints[20][m], ints[21][m],
-            act)
+    act = tables.active_list[tables.active_ptr[m]:tables.active_ptr[m + 1]]
+    return (tables.flow_group[m], tables.switch_group[m], tables.grad_group[m],
+            tables.dsigma_group[m], ns, sl, W, tables.slide_group[m], tables.switch_free[m], act)
 
 
 @numba.njit(cache=True)
@@ -169,7 +170,7 @@ def _log(EV, nev, t, j, ref, source, target, kind, grazing, pre, post):
 
 
 @numba.njit(cache=True)
-def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m, t_end, p,
+def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, m, t_end, p,
                n_sig, ztimes, zcount, sched_done, watch):
     """Run from ``(t, x, m)`` to ``t_end``; see the module docstring for the records.
 
@@ -182,24 +183,22 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
     ``model_address`` and ``box_address`` are the addresses of the generated
     model's point and box functions (:mod:`.codegen`; ``cfunc.address``).
 
-    ``ints``: per mode flow/cond/switch/gradient/dsigma group, invariant offset,
-    invariants, switches, affine flag, outgoing pointer; the outgoing list; per
-    transition target, guard group, monitored (0/1, then guard rows), scheduled
-    (0/1), schedule enabled (0/1), reset group; per mode and switch the Zeno key;
-    per transition the Zeno key; per mode the condition rows, the fused sliding
-    group and whether its switching functions are free of sigma; per mode a pointer
-    into the list of its active states, and that list; per mode the box group of its
-    invariants. ``reals``: per
+    ``tables``: the model's :class:`~.layout.ModelTables`. ``reals``: per
     transition period, phase. Returns the records, the final run state and the
-    checkpoint (meaningful for :data:`HANDOFF`).
+    checkpoint (meaningful for :data:`HANDOFF`), as a :class:`~.layout.KernelResult`.
     """
     model, box = model_at(model_address), model_at(box_address)
     max_steps, interrupted, clock = watch[0], interrupt_at(watch[1]), clock_at(watch[2])
     clock_id, deadline = np.int32(watch[3]), watch[4]
     now = np.zeros(2, dtype=np.int64)
-    (fgs, cgs, sgs, ggs, dgs, inv_off, n_inv, n_sw, affine, out_ptr, out_list, tr_target,
-     tr_guard, tr_monitored, tr_sched, tr_sched_on, tr_reset, sw_key, tr_zkey, n_cond, _,
-     _, _, _, inv_box) = ints
+    cgs = tables.cond_group
+    inv_off, n_inv, n_sw = tables.invariant_offset, tables.n_invariants, tables.n_switches
+    affine, out_ptr, out_list = tables.affine, tables.out_ptr, tables.out_list
+    tr_target, tr_guard, tr_monitored = tables.tr_target, tables.tr_guard, tables.tr_monitored
+    tr_sched, tr_sched_on, tr_reset = (tables.tr_scheduled, tables.tr_schedule_on,
+                                       tables.tr_reset)
+    sw_key, tr_zkey, n_cond = tables.switch_zeno_key, tables.tr_zeno_key, tables.n_conditions
+    inv_box = tables.invariant_box
     period, phase = reals
     method, samples, max_refine, max_events, max_iter, window, use_bounds = (
         opts_i[0], opts_i[1], opts_i[2], opts_i[3], opts_i[4], opts_i[5], opts_i[6])
@@ -280,14 +279,15 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
     cp_graz = np.zeros(0, dtype=np.bool_)
     code = COMPLETED
     last_t, last_x, last_m = t, x.copy(), m
-    fc = _fc(ints, m, slm, W)
+    fc = _fc(tables, m, slm, W)
     if enter_mode(model, fc, affine[m], t, x, p, sig, slm, event_atol) != OK:
         code = HANDOFF
         cp_i[0] = R_START
-        return (code, EV[:0].copy(), PT[:0].copy(), ST[:0].copy(), SG[:0].copy(), stats, info,
-                last_t, last_x, last_m, j, h_last, cp_i, cp_f, cp_x, cp_sig, cp_slm, cp_zt,
-                cp_zc, cp_sd, cp_rows, cp_graz)
-    fc = _fc(ints, m, slm, W)
+        return KernelResult(code, EV[:0].copy(), PT[:0].copy(), ST[:0].copy(), SG[:0].copy(),
+                            stats, info, last_t, last_x, last_m, j, h_last,
+                            KernelCheckpoint(cp_i, cp_f, cp_x, cp_sig, cp_slm, cp_zt, cp_zc,
+                                             cp_sd, cp_rows, cp_graz))
+    fc = _fc(tables, m, slm, W)
     action = _ITERATE
     while True:
         if action != _FLOW:
@@ -329,7 +329,7 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
                                        kinds) != OK:
                         code = HANDOFF
                         break
-                    fc = _fc(ints, m, slm, W)
+                    fc = _fc(tables, m, slm, W)
                     for k in range(n_sw[m]):
                         if kinds[k] == 0:
                             continue
@@ -449,12 +449,12 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
                         break
                 m = target
                 slm[:] = False
-                fc = _fc(ints, m, slm, W)
+                fc = _fc(tables, m, slm, W)
                 if enter_mode(model, fc, affine[m], t, x, p, sig, slm, event_atol) != OK:
                     code = HANDOFF
                     stop = True
                     break
-                fc = _fc(ints, m, slm, W)
+                fc = _fc(tables, m, slm, W)
                 fresh[:] = False
             if stop:
                 break
@@ -672,6 +672,7 @@ def run_kernel(model_address, box_address, ints, reals, opts_i, opts_f, t, x, m,
         cp_zt[:] = ztimes
         cp_zc[:] = zcount
         cp_sd[:] = sched_done
-    return (code, EV[:nev].copy(), PT[:npt].copy(), ST[:nst].copy(), SG[:nsg].copy(), stats,
-            info, last_t, last_x, last_m, j, h_last, cp_i, cp_f, cp_x, cp_sig, cp_slm, cp_zt,
-            cp_zc, cp_sd, cp_rows, cp_graz)
+    return KernelResult(code, EV[:nev].copy(), PT[:npt].copy(), ST[:nst].copy(),
+                        SG[:nsg].copy(), stats, info, last_t, last_x, last_m, j, h_last,
+                        KernelCheckpoint(cp_i, cp_f, cp_x, cp_sig, cp_slm, cp_zt, cp_zc, cp_sd,
+                                         cp_rows, cp_graz))

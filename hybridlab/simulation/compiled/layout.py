@@ -1,0 +1,138 @@
+"""The tables the kernel reads a model from, by name.
+
+:class:`ModelTables` holds, as int64 arrays, everything the kernel needs to know about a
+model's modes and transitions beyond its generated functions: which function group
+computes what, the outgoing transitions of each mode, the guards, schedules and resets,
+the Zeno keys, the states each mode integrates. It is a ``namedtuple`` defined in an
+importable module, which numba passes by value and caches on disk.
+
+Per mode ``m``: ``flow_group[m]``, ``cond_group[m]``, ``switch_group[m]``,
+``grad_group[m]``, ``dsigma_group[m]``, ``slide_group[m]``, ``invariant_box[m]``
+(function groups, :mod:`.opcodes`); ``invariant_offset[m]`` and ``n_invariants[m]``
+(its invariant rows among its condition rows, ``n_conditions[m]`` in all);
+``n_switches[m]``; ``affine[m]`` (its flow is affine in the sign symbols);
+``switch_free[m]`` (its switching functions do not depend on the signs); its outgoing
+transitions ``out_list[out_ptr[m]:out_ptr[m + 1]]``; the states it integrates
+``active_list[active_ptr[m]:active_ptr[m + 1]]``; the Zeno key of its switch ``k`` at
+``switch_zeno_key[m * max(n_sig, 1) + k]``.
+
+Per transition ``i``: ``tr_target[i]``, ``tr_guard[i]`` (its guard's group, -1 for
+none), ``tr_reset[i]``, ``tr_scheduled[i]`` and ``tr_schedule_on[i]`` (0/1: time-triggered,
+and enabled for this run's parameters), ``tr_zeno_key[i]``, and ``tr_monitored``: 1 at
+``i`` if its guard is watched during flows, its number of guard rows at
+``max(n_tr, 1) + i``.
+
+Examples
+--------
+>>> import hybridlab
+>>> from hybridlab.simulation.compiled.backend import prepare
+>>> compiled = hybridlab.compile_model(hybridlab.load_model("models/thermostat.toml"))
+>>> tables = prepare(compiled).tables
+>>> tables.out_list[tables.out_ptr[0]:tables.out_ptr[1]].tolist(), tables.tr_target.tolist()
+([0], [1, 0])
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+__all__ = ["ModelTables", "KernelResult", "KernelCheckpoint"]
+
+
+class ModelTables(NamedTuple):
+    """A model's modes and transitions as the kernel reads them (see the module docstring).
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> from hybridlab.simulation.compiled.backend import prepare
+    >>> compiled = hybridlab.compile_model(hybridlab.load_model("models/thermostat.toml"))
+    >>> tables = prepare(compiled).tables
+    >>> tables.n_invariants.tolist(), tables.tr_scheduled.tolist()
+    ([1, 1], [0, 0])
+    """
+
+    flow_group: np.ndarray
+    cond_group: np.ndarray
+    switch_group: np.ndarray
+    grad_group: np.ndarray
+    dsigma_group: np.ndarray
+    invariant_offset: np.ndarray
+    n_invariants: np.ndarray
+    n_switches: np.ndarray
+    affine: np.ndarray
+    out_ptr: np.ndarray
+    out_list: np.ndarray
+    tr_target: np.ndarray
+    tr_guard: np.ndarray
+    tr_monitored: np.ndarray
+    tr_scheduled: np.ndarray
+    tr_schedule_on: np.ndarray
+    tr_reset: np.ndarray
+    switch_zeno_key: np.ndarray
+    tr_zeno_key: np.ndarray
+    n_conditions: np.ndarray
+    slide_group: np.ndarray
+    switch_free: np.ndarray
+    active_ptr: np.ndarray
+    active_list: np.ndarray
+    invariant_box: np.ndarray
+
+
+class KernelCheckpoint(NamedTuple):
+    """Where a run stopped for the reference engine to continue it (code ``HANDOFF``).
+
+    ``position``: where the run resumes (``R_START``, ``R_ITERATE``, ``R_HANDLE`` or
+    ``R_FLOW`` of :mod:`.kernel`), the mode, the jump counter, and how many event and
+    segment records hold; ``times``: the time and the integrator's last step size (0:
+    none); ``x``; ``sigma`` and ``sliding`` (the signs and the sliding mask);
+    ``zeno_times``, ``zeno_counts``; ``schedules_done``; ``rows`` and ``grazing``: the
+    monitors that ended the last flow segment (``R_HANDLE``).
+
+    Examples
+    --------
+    >>> KernelCheckpoint._fields[:3]
+    ('position', 'times', 'x')
+    """
+
+    position: np.ndarray
+    times: np.ndarray
+    x: np.ndarray
+    sigma: np.ndarray
+    sliding: np.ndarray
+    zeno_times: np.ndarray
+    zeno_counts: np.ndarray
+    schedules_done: np.ndarray
+    rows: np.ndarray
+    grazing: np.ndarray
+
+
+class KernelResult(NamedTuple):
+    """What the kernel returns: its status code, the records, the end state, a checkpoint.
+
+    ``events``, ``points``, ``steps``, ``segments``: the record tables (their columns in
+    :mod:`.kernel`); ``stats``: steps, refinements, events located, segments, steps proven
+    quiet; ``info``: the details of a ``ZENO`` or ``MAX_EVENTS`` stop; ``t``, ``x``,
+    ``mode``, ``jumps``, ``last_step``: the run's last state.
+
+    Examples
+    --------
+    >>> KernelResult._fields[-6:]
+    ('t', 'x', 'mode', 'jumps', 'last_step', 'checkpoint')
+    """
+
+    code: int
+    events: np.ndarray
+    points: np.ndarray
+    steps: np.ndarray
+    segments: np.ndarray
+    stats: np.ndarray
+    info: np.ndarray
+    t: float
+    x: np.ndarray
+    mode: int
+    jumps: int
+    last_step: float
+    checkpoint: KernelCheckpoint
