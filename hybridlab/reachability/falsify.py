@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from hybridlab.reachability.margins import SpecMargin, sample_trajectory, trajectory_margin
 from hybridlab.reachability.options import FalsifyOptions
 from hybridlab.reachability.spec import Spec
 from hybridlab.simulation.options import SimulationOptions
@@ -40,10 +41,6 @@ from hybridlab.symbolic.functions import VectorFunction
 
 __all__ = ["FalsifyOptions", "Counterexample", "SpecMargin", "Falsification", "falsify",
            "FalsificationSearch", "run_point", "trajectory_margin"]
-
-_EMPTY = np.empty(0)
-_INTERIOR = (0.25, 0.5, 0.75)  # extra dense points per integrator step
-
 
 _REFERENCE_STEPS = 200
 """Integrator steps a falsification run may take on the reference engine, and ..."""
@@ -171,30 +168,6 @@ class Counterexample:
 
 
 @dataclass(frozen=True)
-class SpecMargin:
-    """The lowest margin of one spec along one run.
-
-    ``margin`` is reached at ``t`` in ``mode``; ``violation_t``, ``violation_mode`` and
-    ``violation_state`` give the first violation (``None`` when the run has none).
-    See :func:`trajectory_margin`.
-
-    Examples
-    --------
-    >>> m = SpecMargin("v >= -15", 0.992859, 1.427843, "fall")  # lowest at the bounce
-    >>> m.margin > 0, m.violation_t is None  # the spec holds along the whole run
-    (True, True)
-    """
-
-    spec: str
-    margin: float
-    t: float
-    mode: str | None
-    violation_t: float | None = None
-    violation_mode: str | None = None
-    violation_state: np.ndarray | None = field(default=None, repr=False)
-
-
-@dataclass(frozen=True)
 class Falsification:
     """What the falsification search found.
 
@@ -253,115 +226,6 @@ class _Margins:
                     cache[rows] = VectorFunction(rows, TIME, sym.states, sym.parameters, ())
                 per_mode[mode] = cache[rows]
             self.fns.append(per_mode)
-
-
-def trajectory_margin(result: SimulationResult, spec: Spec, fn: Mapping[str, VectorFunction],
-                      p: np.ndarray) -> SpecMargin:
-    """The lowest margin of ``spec`` along ``result`` and its first violation.
-
-    Parameters
-    ----------
-    result : SimulationResult
-    spec : Spec
-    fn : mapping of mode to VectorFunction
-        The spec's rows compiled per mode (``(t, x, p, ())`` functions).
-    p : numpy.ndarray
-        The run's parameter vector.
-
-    Returns
-    -------
-    SpecMargin
-
-    Examples
-    --------
-    The ball dropped from 10 m reaches ``v = -12`` at ``t = 12 / 9.81``, and
-    ``-sqrt(2 g 10) = -14.007`` at the bounce:
-
-    >>> from hybridlab.model.checks import TIME
-    >>> from hybridlab.reachability.spec import parse_spec
-    >>> from hybridlab.symbolic.functions import VectorFunction
-    >>> pb = HybridProblem.build("models/bouncing_ball.toml", t_end=2.0)
-    >>> spec, sym = parse_spec("v >= -12", pb.compiled), pb.compiled.symbolic
-    >>> fn = {mode: VectorFunction(rows, TIME, sym.states, sym.parameters, ())
-    ...       for mode, rows in spec.rows.items()}
-    >>> result = run_point(pb, pb.x0, pb.p0, replace(pb.options, backend="reference"))
-    >>> m = trajectory_margin(result, spec, fn, pb.p0)
-    >>> round(m.margin, 6), round(m.violation_t, 9), m.violation_mode
-    (-2.007141, 1.22324159, 'fall')
-    """
-    best = SpecMargin(spec.text, math.inf, math.nan, None)
-    for seg in result.segments:
-        if seg.mode not in fn:
-            continue
-        f = fn[seg.mode]
-
-        def margin_at(t: float, seg=seg, f=f) -> float:
-            x = seg(float(t))
-            return float(spec.margin(f(float(t), x, p, _EMPTY)[:, None])[0])
-
-        if seg.t.size >= 2:
-            steps = np.diff(seg.t)
-            inner = [seg.t[:-1] + c * steps for c in _INTERIOR]
-            ts = np.sort(np.concatenate([seg.t, *inner]))
-        else:
-            ts = seg.t.copy()
-        values = spec.margin(f.batch(ts, seg(ts).reshape(len(result.state_names), ts.size),
-                                     p, _EMPTY))
-        refined = _refine_minima(ts, values, margin_at)
-        cand_t = np.concatenate([ts, [r[0] for r in refined]])
-        cand_v = np.concatenate([values, [r[1] for r in refined]])
-        k = int(np.argmin(cand_v))
-        if cand_v[k] < best.margin:
-            best = replace(best, margin=float(cand_v[k]), t=float(cand_t[k]), mode=seg.mode)
-        if best.violation_t is None:
-            bad = np.flatnonzero(spec.violated(cand_v))
-            if bad.size:
-                t_bad = float(np.min(cand_t[bad]))
-                t_v = _first_violation(spec, ts, values, t_bad, margin_at)
-                best = replace(best, violation_t=t_v, violation_mode=seg.mode,
-                               violation_state=np.asarray(seg(t_v), dtype=float))
-    return best
-
-
-def _refine_minima(ts: np.ndarray, values: np.ndarray, margin_at, count: int = 3
-                   ) -> list[tuple[float, float]]:
-    """Bounded scalar minimisation around the lowest interior local minima of the grid."""
-    if ts.size < 3:
-        return []
-    inner = np.flatnonzero((values[1:-1] <= values[:-2]) & (values[1:-1] <= values[2:])) + 1
-    out = []
-    for i in inner[np.argsort(values[inner])][:count]:
-        lo, hi = float(ts[i - 1]), float(ts[i + 1])
-        if not hi > lo:
-            continue
-        from scipy import optimize
-
-        res = optimize.minimize_scalar(margin_at, bounds=(lo, hi), method="bounded",
-                                       options={"xatol": 1e-12 * max(1.0, abs(lo))})
-        if np.isfinite(res.fun):
-            out.append((float(res.x), float(res.fun)))
-    return out
-
-
-def _first_violation(spec: Spec, ts: np.ndarray, values: np.ndarray, t_bad: float,
-                     margin_at) -> float:
-    """The first instant the margin becomes violating, at or before ``t_bad``."""
-    ok = np.flatnonzero((ts < t_bad) & ~spec.violated(values))
-    if ok.size == 0 or spec.violated(values[0]):
-        return float(ts[0])
-    # the last good grid point before t_bad; between it and t_bad the margin crosses zero
-    lo = float(ts[ok[-1]])
-    hi_candidates = ts[(ts > lo) & (ts <= t_bad) & spec.violated(values)]
-    hi = float(hi_candidates[0]) if hi_candidates.size else t_bad
-    if margin_at(lo) == 0.0:
-        return lo
-    try:
-        from scipy import optimize
-
-        return float(optimize.brentq(margin_at, lo, hi, xtol=1e-14, rtol=4 * np.finfo(float).eps,
-                                     maxiter=200))
-    except ValueError:  # no sign change (a touch at zero for a strict spec)
-        return hi
 
 
 class _Found(Exception):
@@ -463,7 +327,8 @@ class FalsificationSearch:
         self._most_jumps = max(self._most_jumps, len(result.jumps))
         if not result.status.ok:
             self._incomplete += 1
-        out = [trajectory_margin(result, s, fns, p)
+        samples = sample_trajectory(result)  # once for every spec
+        out = [trajectory_margin(result, s, fns, p, samples)
                for s, fns in zip(self.specs, self._fns, strict=True)]
         for i, m in enumerate(out):
             self._lowest[m.spec] = min(self._lowest[m.spec], m.margin)

@@ -646,6 +646,19 @@ class _SegmentSteps:
         s0 = int(self.first[k])
         return StepInterpolants(self.method, self.n, self.rows[s0:s0 + int(self.count[k])])
 
+    def stepped(self, segments: np.ndarray) -> np.ndarray:
+        """Whether each of ``segments`` has integrator steps (the last one may not)."""
+        inside = segments < len(self.first)
+        out = np.zeros(segments.size, dtype=bool)
+        out[inside] = self.count[segments[inside]] > 0
+        return out
+
+    def at(self, segments: np.ndarray, steps: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """The states at ``t``, each from step ``steps[i]`` of segment ``segments[i]`` (all
+        :meth:`stepped`); shape ``(n, len(t))``, one vectorised evaluation."""
+        return StepInterpolants(self.method, self.n, self.rows).at_steps(
+            self.first[segments] + steps, t)
+
 
 def _event_columns(EV: np.ndarray, n: int, prep: Prepared) -> dict:
     """The columns of :meth:`EventTable.from_columns` from the kernel's event records."""
