@@ -98,11 +98,9 @@ def _is_box(Z: Zonotope) -> bool:
     return bool(np.all(np.count_nonzero(G, axis=0) <= 1))
 
 
-def _contained(inner: Zonotope, outer: Zonotope) -> bool:
-    """A sufficient test for ``inner ⊆ outer``."""
-    ib, ob = inner.bounds(), outer.bounds()
-    if np.any(ib[:, 0] < ob[:, 0]) or np.any(ib[:, 1] > ob[:, 1]):
-        return False
+def _contained_in_hull(inner: Zonotope, outer: Zonotope) -> bool:
+    """A sufficient test for ``inner ⊆ outer``, for an ``inner`` already inside ``outer``'s
+    interval hull."""
     if _is_box(outer):
         return True
     H = outer.halfspaces()
@@ -155,6 +153,33 @@ def _clip_axis(box: np.ndarray, rows: Rows) -> np.ndarray | None:
     return box
 
 
+class _EntrySets:
+    """The sets one mode was entered with, for the fixpoint test, and their interval hulls
+    as arrays: a new set is compared with all hulls at once, and only those whose hull holds
+    it are tested further."""
+
+    def __init__(self, n: int) -> None:
+        self.items: list[Item] = []
+        self.lo, self.hi = np.empty((0, n)), np.empty((0, n))
+
+    def add(self, item: Item) -> None:
+        box = item.P.bounds()
+        self.items.append(item)
+        self.lo = np.vstack([self.lo, box[None, :, 0]])
+        self.hi = np.vstack([self.hi, box[None, :, 1]])
+
+    def covering(self, P: Zonotope) -> Item | None:
+        """The first entered set that contains ``P`` (a sufficient test)."""
+        if not self.items:
+            return None
+        box = P.bounds()
+        inside = np.all(self.lo <= box[:, 0], axis=1) & np.all(box[:, 1] <= self.hi, axis=1)
+        for k in np.flatnonzero(inside):
+            if _contained_in_hull(P, self.items[k].P):
+                return self.items[k]
+        return None
+
+
 class _Analysis:
     def __init__(self, system: System, options: ReachOptions, t_start: float, t_end: float,
                  p: np.ndarray, stop_unproved: Sequence[Spec] = ()) -> None:
@@ -174,7 +199,7 @@ class _Analysis:
         self.records: list[tuple[int, ReachSet]] = []
         self.reasons: list[str] = []
         self.items: dict[int, Item] = {}
-        self.seen: dict[str, list[Item]] = {}
+        self.seen: dict[str, _EntrySets] = {}
         self.fixpoints: list[tuple[int, float]] = []
         self.open_branches = 0  # branches ended by t_end (not by a fixpoint or dying)
         self.next_id = 0
@@ -209,11 +234,12 @@ class _Analysis:
         self.next_id += 1
         self.items[item.id] = item
         if self.use_fixpoint:
-            for old in self.seen.get(mode, []):
-                if _contained(P, old.P):
-                    self.fixpoints.append((old.id, min(0.0, t_lo - old.t_lo)))
-                    return
-            self.seen.setdefault(mode, []).append(item)
+            seen = self.seen.setdefault(mode, _EntrySets(P.dim))
+            old = seen.covering(P)
+            if old is not None:
+                self.fixpoints.append((old.id, min(0.0, t_lo - old.t_lo)))
+                return
+            seen.add(item)
         heapq.heappush(self.queue, (t_lo, item.id, item))
 
     def _reason(self, text: str) -> None:
