@@ -24,7 +24,7 @@ NOT_RUN_HERE = {
 }
 
 #: Extra arguments for scripts whose full run is too long for the suite.
-FAST_ARGS = {"sweep_fig14.py": ["--fast"]}
+FAST_ARGS = {"sweep_fig14.py": ["--fast"], "compiled_backend.py": ["--quick"]}
 
 EXAMPLES = sorted(p for p in EXAMPLES_DIR.glob("*.py") if p.name not in NOT_RUN_HERE)
 

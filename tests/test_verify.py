@@ -402,3 +402,21 @@ def test_executor_runs_split_pieces_and_a_bad_one_fails_before_any_work():
     with pytest.raises(ValueError, match="^executor: .*got 'cluster'") as info:
         check_safety(BALL, executor="cluster", **kw)
     assert isinstance(info.value, hybridlab.errors.HybridlabError) and "\n" not in str(info.value)
+
+
+def test_a_set_too_wide_for_the_linearisation_is_split_until_proved(models_dir):
+    from hybridlab.io import load_spaceex
+
+    vdp = load_spaceex(models_dir / "spaceex" / "vanderpol.xml",
+                       models_dir / "spaceex" / "vanderpol.cfg")
+    kw = {k: v for k, v in vdp.reach_kwargs().items() if k != "step"}
+    whole = hybridlab.reach(vdp.model, **{**kw, "t_end": 4.0})
+    assert not whole.complete and whole.too_wide  # one set: the remainder blows up
+    verdict = check_safety(vdp.model, safe=vdp.safe_specs(), **{**kw, "t_end": 4.0},
+                           falsify_options=FalsifyOptions(samples=0, local_evals=0))
+    assert verdict.status is VerdictStatus.SAFE
+    assert "split=2" in verdict.reason
+    # an explicit split is the caller's: no other is tried
+    kept = check_safety(vdp.model, safe=vdp.safe_specs(), **{**kw, "t_end": 4.0}, split=1,
+                        falsify_options=FalsifyOptions(samples=0, local_evals=0))
+    assert kept.status is VerdictStatus.UNKNOWN and "split=2" not in kept.reason

@@ -53,7 +53,7 @@ import numpy as np
 
 from hybridlab.reachability.clusters import groups, hull, oriented_hull
 from hybridlab.reachability.linear import StepError
-from hybridlab.reachability.nonlinear import FlowStepper
+from hybridlab.reachability.nonlinear import FlowStepper, RemainderError
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.result import ReachResult, ReachSet, _Context
 from hybridlab.reachability.sets import Box, SetError, Zonotope
@@ -198,6 +198,7 @@ class _Analysis:
         self.steppers: dict[str, FlowStepper] = {}
         self.records: list[tuple[int, ReachSet]] = []
         self.reasons: list[str] = []
+        self.too_wide = False  # a nonlinear mode's set outgrew its linearisation
         self.items: dict[int, Item] = {}
         self.seen: dict[str, _EntrySets] = {}
         self.fixpoints: list[tuple[int, float]] = []
@@ -351,6 +352,7 @@ class _Analysis:
             try:
                 P_next, H = stepper.step(P, r)
             except (StepError, SetError) as exc:  # SetError: a set became non-finite
+                self.too_wide = self.too_wide or isinstance(exc, RemainderError)
                 self._reason(f"mode {item.mode!r} at t = {start_lo:.6g}: {exc}")
                 break
             t0 = start_lo
@@ -580,7 +582,7 @@ class _Analysis:
         complete = not self.reasons
         return ReachResult(
             sets=sets, bounds=bounds, reachable_modes=frozenset(s.mode for s in sets),
-            complete=complete, incomplete_reasons=tuple(self.reasons),
+            complete=complete, incomplete_reasons=tuple(self.reasons), too_wide=self.too_wide,
             fixpoint=complete and bool(self.fixpoints) and self.open_branches == 0,
             time_s=_time.perf_counter() - started, state_names=names,
             t_span=(self.t_start, self.t_end), options=self.options)

@@ -44,8 +44,18 @@ from hybridlab.reachability.sets import Zonotope
 from hybridlab.reachability.system import ModeSystem, System
 from hybridlab.symbolic.intervals import IntervalFunction
 
-__all__ = ["FlowStepper"]
+__all__ = ["FlowStepper", "RemainderError"]
 
+
+class RemainderError(StepError):
+    """A nonlinear mode's set is too wide for its linearisation: the remainder does not
+    settle, or overflows. A smaller step, or the initial set split into pieces, helps.
+
+    Examples
+    --------
+    >>> issubclass(RemainderError, StepError)
+    True
+    """
 
 class FlowStepper:
     """Steps of one mode's flow; keeps the propagator cache and the remainder guess.
@@ -225,7 +235,7 @@ class FlowStepper:
                 self._remainder = 1.05 * bound
                 return P_next, H
             guess = np.maximum(guess, 1.5 * bound + 1e-15)
-        raise StepError(f"mode {m.name!r}: the linearisation remainder did not settle in "
+        raise RemainderError(f"mode {m.name!r}: the linearisation remainder did not settle in "
                         f"{self.options.remainder_iterations} iterations (bound "
                         f"{np.max(bound):.3g}); lower `step` or shrink the initial set")
 
@@ -248,6 +258,6 @@ class FlowStepper:
         with np.errstate(over="ignore", invalid="ignore"):
             bound = 0.5 * np.einsum("ijk,j,k->i", mag, delta, delta)
         if not np.all(np.isfinite(bound)):
-            raise StepError(f"mode {self.mode.name!r}: the linearisation remainder overflows "
+            raise RemainderError(f"mode {self.mode.name!r}: the linearisation remainder overflows "
                             "(the set has blown up); lower `step` or shrink the initial set")
         return np.nextafter(bound * (1 + 1e-12), np.inf)

@@ -210,6 +210,9 @@ class ReachResult:
     stopped_unproved : bool
         The analysis ended at a set that does not prove one of the specs it was
         asked to stop on (``stop_unproved``).
+    too_wide : bool
+        A branch ended because a nonlinear mode's set outgrew its linearisation (a
+        smaller step or a split initial set may get further).
 
     Examples
     --------
@@ -239,6 +242,7 @@ class ReachResult:
     t_span: tuple[float, float] = (0.0, 0.0)
     options: ReachOptions = field(default_factory=ReachOptions, repr=False)
     stopped_unproved: bool = False
+    too_wide: bool = False
 
     def __repr__(self) -> str:
         bounds = ", ".join(f"{k}: [{lo:.6g}, {hi:.6g}]" for k, (lo, hi) in self.bounds.items())
@@ -365,4 +369,5 @@ def merge_results(results: Sequence[ReachResult]) -> ReachResult:
         complete=all(r.complete for r in results), incomplete_reasons=reasons,
         fixpoint=all(r.fixpoint for r in results), time_s=sum(r.time_s for r in results),
         state_names=first.state_names, t_span=first.t_span, options=first.options,
-        stopped_unproved=any(r.stopped_unproved for r in results))
+        stopped_unproved=any(r.stopped_unproved for r in results),
+        too_wide=any(r.too_wide for r in results))

@@ -384,28 +384,47 @@ def check(
                        f"reachability failed ({type(exc).__name__}: {text}); "
                        f"{_evidence(found)}",
                        falsification=found, time_s=time.perf_counter() - started)
-    try:  # a refinement that fails leaves the result before it standing
-        if best.open and not step_chosen:
-            step = best.step
-            stalled = 0  # halvings in a row that did not tighten the failing bound
-            for _ in range(_STEP_HALVINGS):
-                step /= 2
-                # (a halving that does not prove ends at its first unproved set)
-                finer = attempt({**best.stage, "step": step}, stop=True)
-                if not (finer.result.complete or finer.result.stopped_unproved):
-                    break  # out of budget: the coarser result stands
-                improved = finer.lower > best.lower
-                stalled = 0 if improved else stalled + 1
-                if improved or finer.proved:
-                    best = finer
-                if not best.unproved or stalled == _STEP_PATIENCE:
-                    break
+
+    def halved(best: _Attempt) -> _Attempt:
+        """The step halved while each halving tightens the failing bound."""
+        step = best.step
+        stalled = 0  # halvings in a row that did not tighten the failing bound
+        for _ in range(_STEP_HALVINGS):
+            step /= 2
+            # (a halving that does not prove ends at its first unproved set)
+            finer = attempt({**best.stage, "step": step}, stop=True)
+            if not (finer.result.complete or finer.result.stopped_unproved):
+                break  # out of budget: the coarser result stands
+            improved = finer.lower > best.lower
+            stalled = 0 if improved else stalled + 1
+            if improved or finer.proved:
+                best = finer
+            if not best.unproved or stalled == _STEP_PATIENCE:
+                break
         if best.result.stopped_unproved and not stands:
             best = attempt(best.stage, again=True)  # the whole flowpipe, for what follows
+        return best
+
+    split_chosen = "split" in reach_overrides or getattr(options, "split", 1) != 1
+    try:  # a refinement that fails leaves the result before it standing
+        if best.open and not step_chosen:
+            best = halved(best)
         if best.open and best.jumped and not clustering_chosen:
             clustered = attempt({**best.stage, "clustering": "auto"})
             if clustered.proved and clustered.result.complete or clustered.lower > best.lower:
                 best = clustered
+        # a nonlinear mode's set outgrew its linearisation: the initial set in pieces
+        if best.result.too_wide and not (best.proved and best.result.complete) \
+                and not split_chosen:
+            for k in _SPLITS:
+                if k ** problem.dims > _MAX_SPLIT_PIECES:
+                    break
+                pieces = attempt({**best.stage, "split": k})
+                if pieces.open and not step_chosen:
+                    pieces = halved(pieces)
+                if pieces.proved and pieces.result.complete:
+                    best = pieces
+                    break
     except failures as exc:
         tried[-1] += f" (failed: {type(exc).__name__})"
     if best.proved and best.result.complete:
@@ -436,6 +455,12 @@ def check(
                    time_s=elapsed, **common)
 
 
+_SPLITS = (2, 4)
+"""Pieces per uncertain direction tried, in turn, when a nonlinear mode's set outgrew its
+linearisation (each with the step refinement)."""
+_MAX_SPLIT_PIECES = 64
+"""The most pieces a split refinement may analyse (``k`` to the number of uncertain
+directions)."""
 _STEP_HALVINGS = 5
 """Halvings of the step at most when a verdict is refined."""
 
@@ -495,6 +520,9 @@ def _describe(stage: dict[str, Any]) -> str:
         parts.append("the guard hits grouped into compact clusters, clustering='auto'")
     if "step" in stage:
         parts.append(f"step={stage['step']:.6g}")
+    if "split" in stage:
+        parts.append(f"the initial set split into {stage['split']} per uncertain direction, "
+                     f"split={stage['split']}")
     return ", ".join(parts)
 
 
