@@ -198,7 +198,7 @@ class _Analysis:
         self.steppers: dict[str, FlowStepper] = {}
         self.records: list[tuple[int, ReachSet]] = []
         self.reasons: list[str] = []
-        self.too_wide = False  # a nonlinear mode's set outgrew its linearisation
+        self.too_wide: set[str] = set()  # the reasons that are a set outgrowing a linearisation
         self.items: dict[int, Item] = {}
         self.seen: dict[str, _EntrySets] = {}
         self.fixpoints: list[tuple[int, float]] = []
@@ -352,8 +352,10 @@ class _Analysis:
             try:
                 P_next, H = stepper.step(P, r)
             except (StepError, SetError) as exc:  # SetError: a set became non-finite
-                self.too_wide = self.too_wide or isinstance(exc, RemainderError)
-                self._reason(f"mode {item.mode!r} at t = {start_lo:.6g}: {exc}")
+                text = f"mode {item.mode!r} at t = {start_lo:.6g}: {exc}"
+                if isinstance(exc, RemainderError):
+                    self.too_wide.add(text)
+                self._reason(text)
                 break
             t0 = start_lo
             t1 = (now + r) if exact_time else item.t_hi + rel + r
@@ -582,7 +584,8 @@ class _Analysis:
         complete = not self.reasons
         return ReachResult(
             sets=sets, bounds=bounds, reachable_modes=frozenset(s.mode for s in sets),
-            complete=complete, incomplete_reasons=tuple(self.reasons), too_wide=self.too_wide,
+            complete=complete, incomplete_reasons=tuple(self.reasons),
+            too_wide=bool(self.too_wide) and self.too_wide == set(self.reasons),
             fixpoint=complete and bool(self.fixpoints) and self.open_branches == 0,
             time_s=_time.perf_counter() - started, state_names=names,
             t_span=(self.t_start, self.t_end), options=self.options)

@@ -211,8 +211,9 @@ class ReachResult:
         The analysis ended at a set that does not prove one of the specs it was
         asked to stop on (``stop_unproved``).
     too_wide : bool
-        A branch ended because a nonlinear mode's set outgrew its linearisation (a
-        smaller step or a split initial set may get further).
+        Incomplete only because nonlinear modes' sets outgrew their linearisation (a
+        smaller step or a split initial set may get further); not when a budget
+        (``max_sets``, ``max_jumps``, the time) also ended a branch.
 
     Examples
     --------
@@ -370,4 +371,5 @@ def merge_results(results: Sequence[ReachResult]) -> ReachResult:
         fixpoint=all(r.fixpoint for r in results), time_s=sum(r.time_s for r in results),
         state_names=first.state_names, t_span=first.t_span, options=first.options,
         stopped_unproved=any(r.stopped_unproved for r in results),
-        too_wide=any(r.too_wide for r in results))
+        too_wide=any(r.too_wide for r in results)
+        and all(r.too_wide or r.complete for r in results))

@@ -413,9 +413,10 @@ def check(
             clustered = attempt({**best.stage, "clustering": "auto"})
             if clustered.proved and clustered.result.complete or clustered.lower > best.lower:
                 best = clustered
-        # a nonlinear mode's set outgrew its linearisation: the initial set in pieces
-        if best.result.too_wide and not (best.proved and best.result.complete) \
-                and not split_chosen:
+        # a nonlinear mode's set outgrew its linearisation part-way: the initial set in
+        # pieces, while the pieces get further
+        reached = best.reached(problem.t_start, problem.t_end)
+        if best.result.too_wide and reached >= _SPLIT_PROGRESS and not split_chosen:
             for k in _SPLITS:
                 if k ** problem.dims > _MAX_SPLIT_PIECES:
                     break
@@ -425,6 +426,10 @@ def check(
                 if pieces.proved and pieces.result.complete:
                     best = pieces
                     break
+                further = pieces.reached(problem.t_start, problem.t_end)
+                if further <= reached:
+                    break
+                reached = further
     except failures as exc:
         tried[-1] += f" (failed: {type(exc).__name__})"
     if best.proved and best.result.complete:
@@ -458,6 +463,10 @@ def check(
 _SPLITS = (2, 4)
 """Pieces per uncertain direction tried, in turn, when a nonlinear mode's set outgrew its
 linearisation (each with the step refinement)."""
+_SPLIT_PROGRESS = 0.25
+"""A split is tried only when the whole set got through this fraction of the horizon before
+it outgrew its linearisation (Van der Pol: half; the trolley's pendulum from a wide swing:
+0.4 %, where pieces do not get far either and cost their number in time)."""
 _MAX_SPLIT_PIECES = 64
 """The most pieces a split refinement may analyse (``k`` to the number of uncertain
 directions)."""
@@ -503,6 +512,11 @@ class _Attempt:
     def open(self) -> bool:
         """Complete, yet not proved: what a refinement may settle."""
         return self.result.complete and not self.proved
+
+    def reached(self, t_start: float, t_end: float) -> float:
+        """The fraction of ``[t_start, t_end]`` the flowpipe covers (to its last set)."""
+        last = max((rs.t[1] for rs in self.result.sets), default=t_start)
+        return min(1.0, (last - t_start) / (t_end - t_start))
 
     @property
     def unproved(self) -> bool:
