@@ -465,7 +465,7 @@ _SPLITS = (2, 4)
 linearisation (each with the step refinement)."""
 _SPLIT_PROGRESS = 0.25
 """A split is tried only when the whole set got through this fraction of the horizon before
-it outgrew its linearisation (Van der Pol: half; the trolley's pendulum from a wide swing:
+it outgrew its linearisation (Van der Pol: half; a cart's pendulum swinging from a wide set:
 0.4 %, where pieces do not get far either and cost their number in time)."""
 _MAX_SPLIT_PIECES = 64
 """The most pieces a split refinement may analyse (``k`` to the number of uncertain
