@@ -20,16 +20,7 @@ Per transition ``i``: ``tr_target[i]``, ``tr_guard[i]`` (its guard's group, -1 f
 none), ``tr_reset[i]``, ``tr_scheduled[i]`` and ``tr_schedule_on[i]`` (0/1: time-triggered,
 and enabled for this run's parameters), ``tr_zeno_key[i]``, and ``tr_monitored``: 1 at
 ``i`` if its guard is watched during flows, its number of guard rows at
-``max(n_tr, 1) + i``.
-
-Examples
---------
->>> import hybridlab
->>> from hybridlab.simulation.compiled.backend import prepare
->>> compiled = hybridlab.compile_model(hybridlab.load_model("models/thermostat.toml"))
->>> tables = prepare(compiled).tables
->>> tables.out_list[tables.out_ptr[0]:tables.out_ptr[1]].tolist(), tables.tr_target.tolist()
-([0], [1, 0])
+``max(n_tr, 1) + i``. :class:`ModelTables` shows a model's tables.
 """
 
 from __future__ import annotations
@@ -50,6 +41,8 @@ class ModelTables(NamedTuple):
     >>> from hybridlab.simulation.compiled.backend import prepare
     >>> compiled = hybridlab.compile_model(hybridlab.load_model("models/thermostat.toml"))
     >>> tables = prepare(compiled).tables
+    >>> tables.out_list[tables.out_ptr[0]:tables.out_ptr[1]].tolist(), tables.tr_target.tolist()
+    ([0], [1, 0])
     >>> tables.n_invariants.tolist(), tables.tr_scheduled.tolist()
     ([1, 1], [0, 0])
     """
