@@ -497,7 +497,7 @@ class Zonotope:
         mus = np.concatenate([-C[:, nz] / d[nz], np.zeros((2 * G.shape[0], 1))], axis=1)
         vals = -np.sum(np.abs(C[:, None, :] + mus[:, :, None] * d[None, None, :]), axis=2)
         # mu * u and mu * l with an infinite end: +-inf by the sign of mu (0 at mu = 0)
-        with np.errstate(invalid="ignore"):
+        with np.errstate(invalid="ignore", over="ignore"):  # an overflow is the inf it gives
             mu_u = mus * u if np.isfinite(u) else np.sign(mus) * np.inf * np.sign(u)
             mu_l = mus * l if np.isfinite(l) else np.sign(mus) * np.inf * np.sign(l)
             vals -= np.maximum(np.nan_to_num(mu_u, nan=0.0, posinf=np.inf, neginf=-np.inf),
