@@ -624,12 +624,19 @@ def test_schema_describes_the_top_level_keys() -> None:
     assert isinstance(schema, dict)
     assert schema["$schema"] == "https://json-schema.org/draft/2020-12/schema"
     assert schema["title"] == "hybridlab model"
-    assert schema["type"] == "object"
-    assert list(schema["properties"]) == list(Model.model_fields)
+    assert schema["anyOf"] == [{"$ref": "#/$defs/Model"}, {"$ref": "#/$defs/Network"}]
+    flat = schema["$defs"]["Model"]
+    assert flat["type"] == "object"
+    assert list(flat["properties"]) == list(Model.model_fields)
     assert {"name", "description", "parameters", "states", "definitions", "modes", "transitions",
-            "initial", "scenarios"} <= set(schema["properties"])
-    assert schema["required"] == ["name", "states", "modes", "initial"]
-    assert schema["additionalProperties"] is False
+            "initial", "scenarios"} <= set(flat["properties"])
+    assert flat["required"] == ["name", "states", "modes", "initial"]
+    assert flat["additionalProperties"] is False
+    network = schema["$defs"]["Network"]
+    assert set(network["properties"]) == {"name", "description", "imports", "templates",
+                                          "instances", "scenarios"}
+    for name in ("Network", "Template", "Instance", "SyncTransition"):
+        assert schema["$defs"][name]["additionalProperties"] is False
     for name in ("Parameter", "State", "Mode", "Transition", "Schedule", "Initial", "Scenario"):
         assert schema["$defs"][name]["additionalProperties"] is False
     assert set(schema["$defs"]["Mode"]["properties"]) >= {"flow", "invariant"}
@@ -686,7 +693,9 @@ def _schema_errors(value: Any, schema: dict, root: dict, path: str = "") -> list
 
 def test_schema_checker_finds_errors() -> None:
     schema = model_json_schema()
-    assert _schema_errors({"name": "x", "nme": 1}, schema, schema) == [
+    assert _schema_errors({"name": "x", "nme": 1}, schema, schema) == [": matches no anyOf branch"]
+    flat = schema["$defs"]["Model"]
+    assert _schema_errors({"name": "x", "nme": 1}, flat, schema) == [
         ".states: required", ".modes: required", ".initial: required", ".nme: not allowed"]
 
 

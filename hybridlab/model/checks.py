@@ -18,11 +18,13 @@ from hybridlab.errors import ExpressionError, ModelError
 from hybridlab.model.expressions import (
     MAX_TREE_NODES,
     Inequality,
-    check_name,
+    check_qualified_name,
     parse_expression,
     parse_relation,
     tree_size,
 )
+from hybridlab.model.names import aliases as unqualified_aliases
+from hybridlab.model.names import match_modes, mode_target
 
 if TYPE_CHECKING:
     from hybridlab.model.schema import Model
@@ -179,6 +181,7 @@ class SymbolicModel:
     transitions: tuple[SymbolicTransition, ...]
     mechanics: SymbolicMechanics | None = None
     local_names: frozenset[str] = frozenset()
+    aliases: Mapping[str, str] = field(default_factory=dict)
 
     @property
     def time(self) -> sp.Symbol:
@@ -196,7 +199,21 @@ class SymbolicModel:
         names.update(zip(self.state_names, self.states, strict=True))
         names.update({n: _local_symbol(n) for n in self.local_names})
         names.update(self.definitions)
+        names.update({alias: names[full] for alias, full in self.aliases.items()})
         return names
+
+    def qualified(self, name: str) -> str:
+        """The declared name ``name`` stands for: itself, or the qualified name of which
+        it is the unique unqualified spelling (:func:`hybridlab.model.names.aliases`).
+
+        Examples
+        --------
+        >>> from hybridlab.model.loader import load_model
+        >>> sym = load_model("models/two_rooms.toml").symbolic
+        >>> sym.qualified("on_time"), sym.qualified("room1.T"), sym.qualified("T")
+        ('heater.on_time', 'room1.T', 'T')
+        """
+        return self.aliases.get(name, name)
 
 
 def _fail(message: str, key: str, token: str = "") -> ModelError:
@@ -223,7 +240,7 @@ def _declared_names(model: Model) -> set[str]:
     for section in ("parameters", "states", "definitions"):
         for name in getattr(model, section):
             try:
-                check_name(name)
+                check_qualified_name(name)
             except ExpressionError as exc:
                 raise _fail(exc.message, f"{section}.{name}", exc.token) from None
             if name in seen:
@@ -234,7 +251,7 @@ def _declared_names(model: Model) -> set[str]:
         for name in mode.definitions:
             key = f"modes.{mode_name}.definitions.{name}"
             try:
-                check_name(name)
+                check_qualified_name(name)
             except ExpressionError as exc:
                 raise _fail(exc.message, key, exc.token) from None
             if name in seen:
@@ -244,10 +261,12 @@ def _declared_names(model: Model) -> set[str]:
 
 
 def _definitions(texts: Mapping[str, str], base: dict[str, sp.Expr],
-                 prefix: str) -> dict[str, sp.Expr]:
+                 prefix: str, aliases: Mapping[str, str] | None = None) -> dict[str, sp.Expr]:
     """Parse definitions in dependency order; a cycle is an error."""
     placeholders = {name: sp.Symbol(f"_def_{name}", real=True) for name in texts}
     names = {**base, **placeholders}
+    names.update({alias: placeholders[full] for alias, full in (aliases or {}).items()
+                  if full in placeholders})
     uses: dict[str, list[str]] = {}
     raw: dict[str, sp.Expr] = {}
     for name, text in texts.items():
@@ -421,8 +440,14 @@ def build_symbolic(model: Model) -> SymbolicModel:
     base.update(zip(parameter_names, parameters, strict=True))
     base.update(zip(state_names, states, strict=True))
     base_with_local = {**base, **{n: _local_symbol(n) for n in all_local}}
-    definitions = _definitions(model.definitions, base_with_local, "definitions")
+    aliases = unqualified_aliases([*parameter_names, *state_names, *model.definitions,
+                                   *sorted(all_local)])
+    base_with_local.update({alias: base_with_local[full] for alias, full in aliases.items()
+                            if full in base_with_local})
+    definitions = _definitions(model.definitions, base_with_local, "definitions", aliases)
     names = {**base_with_local, **definitions}
+    names.update({alias: definitions[full] for alias, full in aliases.items()
+                  if full in definitions})
     if not state_names:
         raise _fail("a model needs at least one state", "states")
     if not model.modes:
@@ -477,16 +502,20 @@ def build_symbolic(model: Model) -> SymbolicModel:
         if tr.name in seen_names:
             raise _fail("transition name used twice", f"{key}.name", tr.name)
         seen_names.add(tr.name)
-        sources = list(model.modes) if tr.source == "*" else (
+        patterns = list(model.modes) if tr.source == "*" else (
             [tr.source] if isinstance(tr.source, str) else list(tr.source))
-        if not sources:
+        if not patterns:
             raise _fail("a transition needs at least one source mode", f"{key}.source")
-        for i, mode_name in enumerate(sources):
-            if mode_name not in model.modes:
+        sources: list[str] = []
+        for i, pattern in enumerate(patterns):
+            matched = match_modes(pattern, list(model.modes))
+            if not matched:
                 where = f"{key}.source" if isinstance(tr.source, str) else f"{key}.source[{i}]"
-                raise _fail("transition source is not a mode", where, mode_name)
-        if tr.target != "*" and tr.target not in model.modes:
-            raise _fail("transition target is not a mode", f"{key}.target", tr.target)
+                raise _fail("transition source is not a mode", where, pattern)
+            sources.extend(m for m in matched if m not in sources)
+        for source in sources:
+            if mode_target(source, tr.target) not in model.modes:
+                raise _fail("transition target is not a mode", f"{key}.target", tr.target)
         if not tr.guard and tr.schedule is None:
             raise _fail("a transition needs a guard or a schedule", f"{key}.guard", tr.name)
         for state in tr.reset:
@@ -514,7 +543,7 @@ def build_symbolic(model: Model) -> SymbolicModel:
             )
             transitions.append(SymbolicTransition(
                 index=len(transitions), name=tr.name, source=source,
-                target=source if tr.target == "*" else tr.target,
+                target=mode_target(source, tr.target),
                 guard=guard, reset=reset, priority=tr.priority,
                 period=period, phase=phase if phase is not None else sp.Integer(0),
                 enabled=enabled,
@@ -526,10 +555,10 @@ def build_symbolic(model: Model) -> SymbolicModel:
     for scenario_name, scenario in model.scenarios.items():
         key = f"scenarios.{scenario_name}"
         for p in scenario.parameters:
-            if p not in model.parameters:
+            if aliases.get(p, p) not in model.parameters:
                 raise _fail("unknown parameter", f"{key}.parameters.{p}", p)
         for s in scenario.initial:
-            if s not in model.states:
+            if aliases.get(s, s) not in model.states:
                 raise _fail("unknown state", f"{key}.initial.{s}", s)
         if scenario.mode is not None and scenario.mode not in model.modes:
             raise _fail("scenario mode is not a mode", f"{key}.mode", scenario.mode)
@@ -547,4 +576,5 @@ def build_symbolic(model: Model) -> SymbolicModel:
         transitions=tuple(transitions),
         mechanics=mechanics,
         local_names=frozenset(all_local),
+        aliases=aliases,
     )

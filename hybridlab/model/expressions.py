@@ -32,6 +32,10 @@ __all__ = [
     "parse_expression",
     "parse_relation",
     "check_name",
+    "check_qualified_name",
+    "dotted_name",
+    "rename",
+    "names_in",
     "as_expression",
     "expanded_size",
     "tree_size",
@@ -155,6 +159,103 @@ def check_name(name: str) -> None:
     if name in RESERVED_NAMES:
         kind = "the time symbol" if name == "t" else "a built-in function or constant"
         raise ExpressionError(f"name shadows {kind}", name)
+
+
+def check_qualified_name(name: str) -> None:
+    """Raise :class:`ExpressionError` unless ``name`` is a name or a qualified name.
+
+    A qualified name joins names with dots (``room1.T``): the state ``T`` of the
+    component ``room1`` of a composed model. Each part is checked as :func:`check_name`.
+
+    Examples (``...`` stands for the rest of the message)
+    --------
+    >>> check_qualified_name("room1.T")
+    >>> check_qualified_name("room1.sin")
+    Traceback (most recent call last):
+    ...
+    hybridlab.errors.ExpressionError: name shadows a built-in function or constant ...
+    """
+    if not isinstance(name, str):
+        raise ExpressionError("not a valid name (letters, digits and '_', not a keyword)",
+                              str(name))
+    for part in name.split("."):
+        try:
+            check_name(part)
+        except ExpressionError as exc:
+            raise ExpressionError(exc.message, name) from None
+
+
+def dotted_name(node: ast.AST) -> str | None:
+    """The text of a chain of names joined by dots (``room1.T``), else ``None``.
+
+    Examples
+    --------
+    >>> dotted_name(ast.parse("room1.T", mode="eval").body)
+    'room1.T'
+    >>> dotted_name(ast.parse("f(x).T", mode="eval").body) is None
+    True
+    """
+    parts: list[str] = []
+    while isinstance(node, ast.Attribute):
+        parts.append(node.attr)
+        node = node.value
+    if not isinstance(node, ast.Name):
+        return None
+    parts.append(node.id)
+    return ".".join(reversed(parts))
+
+
+def rename(text: str, names: Mapping[str, str]) -> str:
+    """``text`` with every name that is a key of ``names`` replaced by its value.
+
+    The names are found in the parsed tree, so a function, a longer name or a number
+    that contains one is left alone; the rest of the text is kept as written.
+
+    Raises
+    ------
+    ExpressionError
+        If ``text`` cannot be parsed.
+
+    Examples
+    --------
+    >>> rename("-a*(T - T_out) + c*(T_other - T)", {"T": "room1.T", "T_other": "room2.T"})
+    '-a*(room1.T - T_out) + c*(room2.T - room1.T)'
+    >>> rename("exp(-x) + x2", {"x": "tank.x", "exp": "no"})
+    'exp(-tank.x) + x2'
+    """
+    stripped = text.strip()
+    tree = _parse_tree(stripped)
+    data = stripped.encode("utf-8")  # ast offsets count UTF-8 bytes
+    starts = [0]
+    for line in data.split(b"\n"):
+        starts.append(starts[-1] + len(line) + 1)
+    spans = sorted(
+        (starts[node.lineno - 1] + node.col_offset,
+         starts[(node.end_lineno or node.lineno) - 1] + (node.end_col_offset or 0),
+         names[node.id])
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Name) and node.id in names
+        and node.id not in FUNCTIONS and node.id not in CONSTANTS)
+    out, at = [], 0
+    for begin, end, name in spans:
+        out.append(data[at:begin])
+        out.append(name.encode("utf-8"))
+        at = end
+    out.append(data[at:])
+    return b"".join(out).decode("utf-8")
+
+
+def names_in(text: str) -> set[str]:
+    """The names an expression or relation text uses (functions and constants excluded).
+
+    Examples
+    --------
+    >>> sorted(names_in("sin(x) + k*y <= pi"))
+    ['k', 'x', 'y']
+    """
+    return {node.id for node in ast.walk(_parse_tree(text))
+            if isinstance(node, ast.Name) and node.id not in FUNCTIONS
+            and node.id not in CONSTANTS}
 
 
 def _parse_tree(text: str) -> ast.expr:
@@ -303,7 +404,7 @@ class _Builder:
 
     def expr(self, node: ast.AST, depth: int = 0) -> sp.Expr:
         result = self._build(node, depth)
-        if isinstance(node, ast.BinOp | ast.UnaryOp | ast.Call | ast.Name):
+        if isinstance(node, ast.BinOp | ast.UnaryOp | ast.Call | ast.Name | ast.Attribute):
             self.check_size(result, node)
         if isinstance(node, ast.BinOp | ast.UnaryOp | ast.Call):
             self.check_finite(result, node)
@@ -394,6 +495,12 @@ class _Builder:
             raise ExpressionError("a comparison is not allowed here; an expression is expected",
                                   self.token(node))
         if isinstance(node, ast.Attribute):
+            # a qualified name (``room1.T``) is looked up whole: never an attribute access
+            dotted = dotted_name(node)
+            if dotted is not None and dotted in self.symbols:
+                return self.symbols[dotted]
+            if dotted is not None and any("." in name for name in self.symbols):
+                raise ExpressionError("unknown symbol", dotted)
             raise ExpressionError("attribute access is not allowed", node.attr)
         if isinstance(node, ast.Subscript):
             raise ExpressionError("indexing is not allowed", self.token(node))

@@ -99,8 +99,13 @@ def _from_validation_error(exc: ValidationError, data: Any = _MISSING) -> ModelE
     return ModelError(error.get("msg", "invalid value"), key=key, token=token)
 
 
-def model_from_dict(data: Mapping[str, Any], *, source: str = "<dict>") -> Model:
+def model_from_dict(data: Mapping[str, Any], *, source: str = "<dict>",
+                    path: str | Path | None = None) -> Model:
     """Validate a plain mapping (as read from TOML or JSON) into a :class:`Model`.
+
+    A mapping with ``templates``, ``imports`` or ``instances`` describes components; its
+    product is the model (:func:`hybridlab.model.library.network_from_dict`, where
+    ``path``, the file, locates the imports).
 
     Raises
     ------
@@ -121,6 +126,13 @@ def model_from_dict(data: Mapping[str, Any], *, source: str = "<dict>") -> Model
     if not isinstance(data, Mapping):
         raise ModelError("a model must be a table of keys", source=source)
     data = dict(data)
+    from hybridlab.model.library import is_network, network_from_dict
+
+    if is_network(data):
+        try:
+            return network_from_dict(data, source=source, path=path)
+        except (RecursionError, MemoryError, OverflowError):
+            raise ModelError("model is too deeply nested or too large", source=source) from None
     try:
         return Model.model_validate(data)
     except ValidationError as exc:
@@ -131,8 +143,11 @@ def model_from_dict(data: Mapping[str, Any], *, source: str = "<dict>") -> Model
         raise ModelError("model is too deeply nested or too large", source=source) from None
 
 
-def loads_model(text: str, *, source: str = "<string>") -> Model:
+def loads_model(text: str, *, source: str = "<string>", path: str | Path | None = None) -> Model:
     """Parse TOML ``text`` into a :class:`Model`.
+
+    Imports of components are relative to the folder of ``path`` (the file the text
+    came from), else to the current folder.
 
     Any text yields a model or a :class:`ModelError`, never another exception.
 
@@ -158,7 +173,7 @@ def loads_model(text: str, *, source: str = "<string>") -> Model:
         raise ModelError(f"invalid TOML: {exc}", source=source) from None
     except (RecursionError, MemoryError, TypeError, ValueError) as exc:
         raise ModelError(f"invalid TOML: {type(exc).__name__}", source=source) from None
-    return model_from_dict(data, source=source)
+    return model_from_dict(data, source=source, path=path)
 
 
 def load_model(path: str | Path) -> Model:
@@ -198,7 +213,7 @@ def load_model(path: str | Path) -> Model:
         text = raw.decode("utf-8")
     except UnicodeDecodeError:
         raise ModelError("file is not UTF-8 text", source=str(path)) from None
-    return loads_model(text, source=str(path))
+    return loads_model(text, source=str(path), path=path)
 
 
 #: TOML basic-string escapes with a short form; other control characters use \\uXXXX.
@@ -288,13 +303,27 @@ def model_json_schema() -> dict[str, Any]:
 
     Examples
     --------
+    A model file is a flat automaton (``Model``) or a network of components
+    (``Network``: templates, imports, instances):
+
     >>> schema = model_json_schema()
     >>> schema["title"], schema["$schema"]
     ('hybridlab model', 'https://json-schema.org/draft/2020-12/schema')
-    >>> schema["required"], sorted(schema["$defs"])[:3]
-    (['name', 'states', 'modes', 'initial'], ['Initial', 'Mechanics', 'Mode'])
+    >>> schema["anyOf"]
+    [{'$ref': '#/$defs/Model'}, {'$ref': '#/$defs/Network'}]
+    >>> schema["$defs"]["Model"]["required"], schema["$defs"]["Network"]["required"]
+    (['name', 'states', 'modes', 'initial'], ['name'])
     """
-    schema = Model.model_json_schema()
-    schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
-    schema["title"] = "hybridlab model"
-    return schema
+    from pydantic.json_schema import models_json_schema
+
+    from hybridlab.model.network import Network
+
+    _, shared = models_json_schema([(Model, "validation"), (Network, "validation")],
+                                   ref_template="#/$defs/{model}")
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "title": "hybridlab model",
+        "description": "A hybrid automaton (Model), or one built from components (Network).",
+        "anyOf": [{"$ref": "#/$defs/Model"}, {"$ref": "#/$defs/Network"}],
+        "$defs": shared["$defs"],
+    }

@@ -320,6 +320,7 @@ class Model(_Frozen):
 
     _symbolic: Any = PrivateAttr(default=None)
     _compiled: Any = PrivateAttr(default=None)
+    _network: Any = PrivateAttr(default=None)
 
     def __eq__(self, other: object) -> bool:
         # compare the declared fields only: pydantic's default also compares the private
@@ -350,6 +351,12 @@ class Model(_Frozen):
     def parameter_names(self) -> tuple[str, ...]:
         """Parameter names in declaration order (the order of parameter vectors)."""
         return tuple(self.parameters)
+
+    @property
+    def network(self) -> Any:
+        """The components the model was built from
+        (:class:`hybridlab.model.compose.NetworkSummary`), or ``None`` for a flat file."""
+        return self._network
 
     @property
     def symbolic(self) -> Any:

@@ -389,6 +389,12 @@ def _name_of(spec: Model, sc: Scenario) -> str:
     return next(name for name, s in spec.scenarios.items() if s is sc)
 
 
+def _qualified(compiled: CompiledModel, values: Mapping[str, Any] | None) -> dict[str, Any]:
+    """``values`` keyed by declared names: a component's name given without its qualifier
+    (``T_out`` for ``room1.T_out``, where unique) becomes the qualified name."""
+    return {compiled.symbolic.qualified(name): value for name, value in (values or {}).items()}
+
+
 def _vector(convert: Any, values: Mapping[str, float]) -> np.ndarray:
     try:
         return np.asarray(convert(values), dtype=float)
@@ -401,9 +407,10 @@ def _parameters(compiled: CompiledModel, sc: Scenario | None,
                 ) -> tuple[dict[str, float], dict[str, tuple[float, float]],
                            dict[str, tuple[float, float]]]:
     pnames = compiled.parameter_names
-    fixed: dict[str, float] = dict(sc.parameters) if sc is not None else {}
+    fixed: dict[str, float] = _qualified(compiled, sc.parameters) if sc is not None else {}
     box: dict[str, tuple[float, float]] = {}
-    for name, value in (params or {}).items():
+    params, inputs = _qualified(compiled, params), _qualified(compiled, inputs)
+    for name, value in params.items():
         if name not in pnames:
             raise _unknown("params", "parameter", name, pnames)
         lo, hi = interval(value, f"params[{name!r}]")
@@ -411,7 +418,7 @@ def _parameters(compiled: CompiledModel, sc: Scenario | None,
         if hi > lo:
             box[name] = (lo, hi)
     bounded: dict[str, tuple[float, float]] = {}
-    for name, value in (inputs or {}).items():
+    for name, value in inputs.items():
         if name not in pnames:
             raise _unknown("inputs", "parameter", name, pnames)
         if params and name in params:
@@ -427,10 +434,10 @@ def _parameters(compiled: CompiledModel, sc: Scenario | None,
 def _initial(compiled: CompiledModel, sc: Scenario | None, initial: Any
              ) -> tuple[dict[str, float], dict[str, tuple[float, float]], Any]:
     snames = compiled.state_names
-    fixed: dict[str, float] = dict(sc.initial) if sc is not None else {}
+    fixed: dict[str, float] = _qualified(compiled, sc.initial) if sc is not None else {}
     box: dict[str, tuple[float, float]] = {}
     if initial is None or isinstance(initial, Mapping):
-        for name, value in (initial or {}).items():
+        for name, value in _qualified(compiled, initial).items():
             if name not in snames:
                 raise _unknown("initial", "state", name, snames)
             lo, hi = interval(value, f"initial[{name!r}]")

@@ -232,10 +232,10 @@ class CompiledModel:
         values = {name: s.initial for name, s in self.model.states.items()}
         return self._vector(values, overrides, "state", self.state_names)
 
-    @staticmethod
-    def _vector(values: dict[str, float], overrides: Mapping[str, float] | None, kind: str,
-                order: tuple[str, ...]) -> np.ndarray:
-        for name, value in (overrides or {}).items():
+    def _vector(self, values: dict[str, float], overrides: Mapping[str, float] | None,
+                kind: str, order: tuple[str, ...]) -> np.ndarray:
+        for given, value in (overrides or {}).items():
+            name = self.symbolic.qualified(given)  # a unique unqualified name of a component
             if name not in values:
                 known = ", ".join(order)
                 raise ValueError(f"unknown {kind} {name!r}; expected one of: {known}")
