@@ -19,7 +19,17 @@ import tempfile
 import traceback
 from collections.abc import Sequence
 
-from hybridlab.cli import check, graph, identify, importers, reach, schema, simulate, sweep
+from hybridlab.cli import (
+    check,
+    flatten,
+    graph,
+    identify,
+    importers,
+    reach,
+    schema,
+    simulate,
+    sweep,
+)
 from hybridlab.cli._args import (
     EXIT_BUG,
     EXIT_INCOMPLETE,
@@ -35,7 +45,7 @@ from hybridlab.errors import HybridlabError, ModelError, SimulationError
 __all__ = ["EXIT_BUG", "EXIT_INTERRUPTED", "main"]
 
 #: the commands in the order ``--help`` lists them
-_COMMANDS = (check, simulate, graph, identify, importers, sweep, reach, schema)
+_COMMANDS = (check, simulate, graph, identify, importers, sweep, reach, flatten, schema)
 
 
 def _parser() -> Parser:

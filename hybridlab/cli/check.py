@@ -14,13 +14,25 @@ __all__ = ["add_parser", "summary"]
 
 
 def summary(model: Model) -> str:
-    """The summary ``check`` prints: states, parameters, modes, transitions, scenarios.
+    """The summary ``check`` prints: states, parameters, modes, transitions, scenarios,
+    and for a model built from components its network (instances, connections, labels).
 
     Examples
     --------
     >>> from hybridlab import load_model
     >>> print(summary(load_model("models/bouncing_ball.toml")).splitlines()[0])
     model 'bouncing_ball': OK
+    >>> print("\n".join(summary(load_model("models/two_rooms.toml")).splitlines()[2:12]))
+      instances (3):
+        room1: template 'room' from models/two_rooms.toml
+        room2: template 'room' from models/two_rooms.toml
+        heater: template 'heater' from models/two_rooms.toml
+      connections (2): room1.T_other <- room2.T, room2.T_other <- room1.T
+      labels (4):
+        start1: room1.turn_on, heater.grant1
+        stop1: room1.turn_off, heater.release1
+        start2: room2.turn_on, heater.grant2
+        stop2: room2.turn_off, heater.release2
     """
     from hybridlab._text import printable
     from hybridlab.symbolic.compile import compile_model
@@ -29,6 +41,8 @@ def summary(model: Model) -> str:
     lines = [f"model {model.name!r}: OK"]
     if model.description:
         lines.append(f"  {' '.join(model.description.split())}")
+    if model.network is not None:
+        lines.extend(model.network.describe())
     lines.append(f"  states ({len(model.states)}): {', '.join(model.states)}")
     lines.append(f"  parameters ({len(model.parameters)}): {', '.join(model.parameters) or '-'}")
     lines.append(f"  modes ({len(model.modes)}), initial {model.initial.mode!r}:")

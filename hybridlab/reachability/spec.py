@@ -28,12 +28,15 @@ import sympy as sp
 from hybridlab.errors import ExpressionError, HybridlabError, ModelError
 from hybridlab.model.checks import TIME
 from hybridlab.model.expressions import parse_relation
+from hybridlab.model.names import match_modes
 from hybridlab.model.schema import Model
 from hybridlab.symbolic.compile import CompiledModel, compile_model
 
 __all__ = ["SpecError", "Spec", "Avoid", "parse_spec", "as_specs"]
 
-_MODE_PREFIX = re.compile(r"^\s*([A-Za-z_*][\w*]*(?:\s*,\s*[A-Za-z_*][\w*]*)*)\s*:(?!=)")
+#: ``MODE, MODE:`` before a relation; a mode of a product may be named by some of its
+#: components' modes (``room1.on|heater.heat1``), see :func:`hybridlab.model.names.match_modes`
+_MODE_PREFIX = re.compile(r"^\s*([A-Za-z_*][\w*.|]*(?:\s*,\s*[A-Za-z_*][\w*.|]*)*)\s*:(?!=)")
 
 
 class SpecError(HybridlabError, ValueError):
@@ -149,11 +152,11 @@ def _select_modes(text: str, names: str | None, compiled: CompiledModel) -> tupl
     for name in (n.strip() for n in names.split(",")):
         if name == "*":
             return None
-        if name not in compiled.modes:
+        matched = match_modes(name, list(compiled.modes))
+        if not matched:
             raise SpecError(text, f"unknown mode; the model has: {', '.join(compiled.modes)}",
                             name)
-        if name not in chosen:
-            chosen.append(name)
+        chosen.extend(m for m in matched if m not in chosen)
     return tuple(chosen)
 
 

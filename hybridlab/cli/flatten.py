@@ -1,0 +1,45 @@
+"""``hybridlab flatten MODEL -o OUT``: a model built from components as one flat file."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from hybridlab.cli._args import EXIT_OK
+
+__all__ = ["add_parser"]
+
+
+def _run(args: argparse.Namespace) -> int:
+    from hybridlab._files import replace_text
+    from hybridlab.model.loader import dumps_model, load_model
+
+    model = load_model(args.model)
+    text = dumps_model(model)
+    if args.out:
+        replace_text(args.out, text)
+        print(f"wrote {args.out}: {len(model.states)} states, {len(model.modes)} modes, "
+              f"{len(model.transitions)} transitions")
+    else:
+        print(text, end="")
+    return EXIT_OK
+
+
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    """Add ``flatten`` to the subparsers ``sub`` of the main command line; its parser.
+
+    Examples
+    --------
+    >>> from hybridlab.cli._args import Parser
+    >>> parser = Parser(prog="hybridlab")
+    >>> _ = add_parser(parser.add_subparsers(dest="command", parser_class=Parser))
+    >>> args = parser.parse_args(["flatten", "models/two_rooms.toml", "-o", "flat.toml"])
+    >>> args.command, args.model, args.out
+    ('flatten', 'models/two_rooms.toml', 'flat.toml')
+    """
+    p: argparse.ArgumentParser = sub.add_parser(
+        "flatten", help="write a model built from components as one flat model file")
+    p.add_argument("model")
+    p.add_argument("-o", "--out", help="the file to write (default: print the model)")
+    p.set_defaults(run=_run)
+    return p
