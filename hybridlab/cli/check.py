@@ -22,7 +22,7 @@ def summary(model: Model) -> str:
     >>> from hybridlab import load_model
     >>> print(summary(load_model("models/bouncing_ball.toml")).splitlines()[0])
     model 'bouncing_ball': OK
-    >>> print("\n".join(summary(load_model("models/two_rooms.toml")).splitlines()[2:12]))
+    >>> print(*summary(load_model("models/two_rooms.toml")).splitlines()[2:12], sep="\\n")
       instances (3):
         room1: template 'room' from models/two_rooms.toml
         room2: template 'room' from models/two_rooms.toml
