@@ -26,13 +26,18 @@ def _run(args: argparse.Namespace) -> int:
     from hybridlab.simulation.result import Status
 
     # check every argument before the (possibly long) simulation runs
-    for option in ("t_end", "rtol", "atol", "max_step", "time_limit"):
+    for option in ("t_end", "rtol", "atol", "max_step", "time_limit", "dt"):
         require_finite(getattr(args, option), "--" + option.replace("_", "-"), error=UsageError)
     params = assignments(args.set, "--set")
     initial = assignments(args.init, "--init")
     out = Path(args.out) if args.out else None
     if out is not None and out.suffix.lower() not in (".json", ".csv", ".npz"):
         raise UsageError(f"--out must end in .json, .csv or .npz (got {args.out!r})")
+    if args.dt is not None and (out is None or out.suffix.lower() != ".csv"):
+        raise UsageError("--dt samples the --out CSV file on a uniform grid: it needs "
+                         "--out FILE.csv")
+    if args.dt is not None and not args.dt > 0:
+        raise UsageError(f"--dt must be a positive number (got {args.dt!r})")
     model = load_model(args.model)
     kwargs = {}
     if args.zeno:
@@ -48,7 +53,10 @@ def _run(args: argparse.Namespace) -> int:
         max_step=args.max_step, **kwargs,
     )
     if out is not None:
-        result.save(out)
+        try:
+            result.save(out, dt=args.dt)
+        except ValueError as exc:  # a grid too fine for the run's length
+            raise UsageError(f"--dt: {exc}") from None
     jumps = len(result.jumps)
     print(f"status: {result.status.name}: {printable(result.message)}")
     print(f"events: {len(result.events)} ({jumps} jumps)")
@@ -97,5 +105,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--backend", choices=("auto", "compiled", "reference"),
                    help="simulation backend (default: compiled when numba is installed)")
     p.add_argument("--out", help="write the result (.json, .csv or .npz)")
+    p.add_argument("--dt", type=float, metavar="STEP",
+                   help="with --out FILE.csv: write the states on a uniform grid of this step "
+                        "(post-jump values at a jump instant) instead of the solver's points")
     p.set_defaults(run=_run)
     return p

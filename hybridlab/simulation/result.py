@@ -17,6 +17,9 @@ from hybridlab.simulation.tables import Event, EventTable, Segment, SegmentTable
 
 __all__ = ["Status", "Event", "Segment", "FinalState", "SimulationStats", "SimulationResult"]
 
+#: the most samples a grid step may ask for (800 MB per state as float64)
+_MOST_SAMPLES = 100_000_000
+
 
 class Status(enum.Enum):
     """How a simulation ended; each value is an actionable explanation.
@@ -268,14 +271,178 @@ class SimulationResult:
             return self.segments[int(self.segment_index(np.array([float(t)]))[0])].mode
         return self._segment_at(float(t), j).mode
 
-    def sample(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """States on a uniform grid of spacing ``dt`` (post-jump values at jump instants)."""
-        if not dt > 0:
-            raise ValueError(f"dt must be positive (got {dt!r})")
-        t0, t1 = self.segments[0].t_start, self.final.t
+    def sample(self, dt: float | Sequence[float] | np.ndarray | None = None, *,
+               t: Sequence[float] | np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """States on a uniform grid of spacing ``dt``, or at the given times.
+
+        Parameters
+        ----------
+        dt : float or array_like
+            A number: the grid's step, from the start of the run to its final
+            time (the final time included when it falls on the grid). An array:
+            the times themselves, as ``t``.
+        t : array_like, optional
+            Times inside the run, in any order.
+
+        Returns
+        -------
+        t : numpy.ndarray
+            The times, shape ``(k,)``.
+        x : numpy.ndarray
+            The states there, shape ``(n, k)``, from the dense output. At a jump
+            instant the value *after* the jump (after every jump of a cascade at
+            that instant), as ``result(t)`` gives; ``result(t, j=k)`` gives the
+            value with jump counter ``k``.
+
+        Examples
+        --------
+        >>> import hybridlab
+        >>> result = hybridlab.simulate("models/bouncing_ball.toml", t_end=3.0,
+        ...                             backend="reference")
+        >>> bounce = result.jumps[0].t
+        >>> t, x = result.sample([0.0, bounce, 2.0])
+        >>> x.round(4) + 0.0  # at the bounce, v after it: 0.8 * 14.0071
+        array([[10.    ,  0.    ,  4.8057],
+               [ 0.    , 11.2057,  5.5929]])
+        """
+        times = self._sample_times(dt, t)
+        if times is None:
+            raise TypeError("sample() needs a step dt or the times t")
+        return times, self._points(times)[3]
+
+    def _sample_times(self, dt: float | Sequence[float] | np.ndarray | None,
+                      t: Sequence[float] | np.ndarray | None) -> np.ndarray | None:
+        """The times of a sample: a grid of step ``dt``, the times ``dt`` or ``t`` (given as
+        an array), or ``None`` (neither given: the stored points)."""
+        if dt is not None and t is not None:
+            raise TypeError("give either a step dt or the times t, not both")
+        if dt is not None and np.ndim(dt) == 0:
+            return self._grid(float(dt))  # type: ignore[arg-type]
+        times = dt if dt is not None else t
+        if times is None:
+            return None
+        ts = np.asarray(times, dtype=float)
+        if ts.ndim != 1:
+            raise ValueError(f"t must be 1-dimensional (got shape {ts.shape})")
+        if not np.isfinite(ts).all():
+            raise ValueError("t must hold finite times")
+        return ts.copy()
+
+    def _grid(self, dt: float) -> np.ndarray:
+        if not (dt > 0 and np.isfinite(dt)):
+            raise ValueError(f"dt must be a positive number (got {dt!r})")
+        t0, t1 = (float(self.segments.t_start[0]) if len(self.segments) else self.final.t,
+                  self.final.t)
+        if (t1 - t0) / dt > _MOST_SAMPLES:
+            raise ValueError(f"dt={dt!r} gives more than {_MOST_SAMPLES:,} samples from "
+                             f"t={t0!r} to t={t1!r}: choose a larger dt")
         grid = np.arange(t0, t1 + 0.5 * dt, dt)
-        grid = grid[grid <= t1]
-        return grid, self(grid)
+        return grid[grid <= t1]
+
+    def _points(self, times: np.ndarray | None
+                ) -> tuple[np.ndarray, np.ndarray, list[str], np.ndarray]:
+        """``t, j, modes, y`` at ``times`` (post-jump at a jump instant), or at the stored
+        points for ``None``."""
+        if times is None:
+            return self.t, self.j, self.modes, self.y
+        which = self.segment_index(times) if times.size else np.empty(0, dtype=np.int64)
+        segments = self.segments
+        modes = segments.mode
+        y = (segments.dense(which, times) if times.size
+             else np.empty((len(self.state_names), 0)))
+        return (times, segments.j[which].astype(int, copy=False),
+                [modes[k] for k in which.tolist()], y)
+
+    def __repr__(self) -> str:
+        from hybridlab.simulation._summary import short_repr
+
+        return short_repr(self)
+
+    def summary(self) -> str:
+        """A short text: status and its explanation, time reached, events per transition,
+        final mode and state, backend and counters.
+
+        Examples
+        --------
+        >>> import hybridlab
+        >>> stopped = hybridlab.simulate("models/bouncing_ball.toml", t_end=3.0, max_events=1,
+        ...                              backend="reference")
+        >>> print(stopped.summary())
+        status: MAX_EVENTS: 1 events logged by t = 1.4278431229...
+          stopped after max_events events: raise max_events if this is expected
+        reached: t 0 -> 1.427843, j=1
+        events: 1 (1 jumps)
+          bounce: 1 jumps
+        final: mode fall, h=..., v=...
+        run: reference backend, 2 segments, 1 events (1 jumps), ... steps, ...
+        """
+        from hybridlab.simulation._summary import summary
+
+        return summary(self)
+
+    def plot(self, states: str | Sequence[str] | None = None, ax: Any = None) -> Any:
+        """Draw states over time (the ``plot`` extra: matplotlib).
+
+        Each state is one line from the dense output, broken at every jump;
+        when the run visits several modes each mode's time is shaded in its own
+        colour; every event is a dotted vertical line. Nothing is shown: the
+        figure is returned, to save or to show.
+
+        Parameters
+        ----------
+        states : str or sequence of str, optional
+            The states to draw (default: all).
+        ax : matplotlib Axes, optional
+            Draw into these axes (then they are returned) instead of a new figure.
+
+        Returns
+        -------
+        matplotlib.figure.Figure, or the Axes given
+
+        Examples
+        --------
+        >>> import hybridlab
+        >>> result = hybridlab.simulate("models/bouncing_ball.toml", t_end=3.0,
+        ...                             backend="reference")
+        >>> fig = result.plot("h")
+        >>> [line.get_label() for line in fig.axes[0].get_lines()]
+        ['h']
+        >>> fig.savefig("ball.png")  # doctest: +SKIP
+        """
+        from hybridlab.simulation._plot import plot
+
+        return plot(self, states, ax)
+
+    def to_pandas(self, dt: float | Sequence[float] | np.ndarray | None = None, *,
+                  t: Sequence[float] | np.ndarray | None = None) -> Any:
+        """The trajectory as a pandas DataFrame (the ``pandas`` extra).
+
+        One row per sample, columns ``t, j, mode`` and one per state. Without
+        ``dt`` or ``t`` the samples are the stored points (every integrator step
+        and both sides of every event, as :attr:`t`); with them, the times
+        :meth:`sample` takes (post-jump values, ``j`` and mode at a jump
+        instant). The events are ``result.events.to_pandas()``.
+
+        Examples
+        --------
+        >>> import hybridlab
+        >>> result = hybridlab.simulate("models/thermostat.toml", t_end=8.0,
+        ...                             backend="reference")
+        >>> df = result.to_pandas(dt=2.0)
+        >>> df.round(4)
+             t  j  mode        T
+        0  0.0  0  heat  20.0000
+        1  2.0  1  cool  20.9164
+        2  4.0  1  cool  18.9376
+        3  6.0  2  heat  19.8769
+        4  8.0  3  cool  20.9836
+        >>> len(result.to_pandas()) == len(result.t)
+        True
+        """
+        from hybridlab.simulation._frames import frame
+
+        times, j, modes, y = self._points(self._sample_times(dt, t))
+        return frame({"t": times, "j": j, "mode": modes}, self.state_names, ("", y))
 
     # ----- export --------------------------------------------------------------------------
     def as_dict(self, include_trajectory: bool = True) -> dict[str, Any]:
@@ -291,8 +458,8 @@ class SimulationResult:
             "stats": dict(self.stats),
         }
         if include_trajectory:
-            y = self.y
-            data["trajectory"] = {"t": self.t.tolist(), "j": self.j.tolist(), "mode": self.modes,
+            t, j, modes, y = self._points(None)
+            data["trajectory"] = {"t": t.tolist(), "j": j.tolist(), "mode": modes,
                                   **{n: y[i].tolist() for i, n in enumerate(self.state_names)}}
         return data
 
@@ -303,14 +470,30 @@ class SimulationResult:
             replace_text(path, text)
         return text
 
-    def to_csv(self, path: str | Path) -> None:
-        """Write the stored trajectory as CSV with columns ``t, j, mode, <states>``."""
-        y = self.y
+    def to_csv(self, path: str | Path, dt: float | Sequence[float] | np.ndarray | None = None,
+               *, t: Sequence[float] | np.ndarray | None = None) -> None:
+        """Write the trajectory as CSV with columns ``t, j, mode, <states>``.
+
+        Without ``dt`` or ``t``: the stored points (both sides of every
+        event). With them: the samples :meth:`sample` takes, e.g. a uniform
+        grid of step ``dt`` (post-jump values at a jump instant).
+
+        Examples
+        --------
+        >>> import hybridlab, pathlib, tempfile
+        >>> result = hybridlab.simulate("models/thermostat.toml", t_end=8.0,
+        ...                             backend="reference")
+        >>> path = pathlib.Path(tempfile.mkdtemp()) / "run.csv"
+        >>> result.to_csv(path, dt=0.5)
+        >>> path.read_text().splitlines()[:3]
+        ['t,j,mode,T', '0.0,0,heat,20.0', '0.5,0,heat,20.97541150998...']
+        """
+        times, j, modes, y = self._points(self._sample_times(dt, t))
 
         def write(fh: IO[str]) -> None:
             writer = csv.writer(fh)
             writer.writerow(["t", "j", "mode", *self.state_names])
-            for k, (tk, jk, mk) in enumerate(zip(self.t, self.j, self.modes, strict=True)):
+            for k, (tk, jk, mk) in enumerate(zip(times, j, modes, strict=True)):
                 writer.writerow([repr(float(tk)), int(jk), mk, *(repr(float(v)) for v in y[:, k])])
 
         replace_file(path, write)
@@ -330,11 +513,17 @@ class SimulationResult:
                                 dtype=float).reshape(len(events), len(self.state_names)),
         ), binary=True)
 
-    def save(self, path: str | Path) -> None:
-        """Write by suffix: ``.json``, ``.csv`` or ``.npz``."""
+    def save(self, path: str | Path, *, dt: float | None = None) -> None:
+        """Write by suffix: ``.json``, ``.csv`` or ``.npz``; ``dt`` (CSV only) samples a
+        uniform grid, as :meth:`to_csv`."""
         suffix = Path(path).suffix.lower()
         writers: dict[str, Callable[[str | Path], object]] = {
             ".json": self.to_json, ".csv": self.to_csv, ".npz": self.to_npz}
         if suffix not in writers:
             raise ValueError(f"output file must end in .json, .csv or .npz (got {str(path)!r})")
+        if dt is not None:
+            if suffix != ".csv":
+                raise ValueError(f"dt applies to a .csv file only (got {str(path)!r})")
+            self.to_csv(path, dt)
+            return
         writers[suffix](path)

@@ -558,6 +558,35 @@ post={'x': 0.0}, kind='jump', grazing=False)
         """States after the events, shape ``(k, n)``."""
         return self._column("post")
 
+    def to_pandas(self) -> Any:
+        """The events as a pandas DataFrame (the ``pandas`` extra), one row per event.
+
+        Columns ``t, j, transition, source, target, kind, grazing``, then
+        ``pre_<state>`` and ``post_<state>`` for every state in
+        :attr:`state_names` order. Made from the columns, without an
+        :class:`Event` object per event.
+
+        Examples
+        --------
+        >>> import hybridlab
+        >>> events = hybridlab.simulate("models/bouncing_ball.toml", t_end=5.0,
+        ...                             backend="reference").events
+        >>> df = events.to_pandas()
+        >>> list(df.columns)
+        ['t', 'j', 'transition', 'source', 'target', 'kind', 'grazing', 'pre_h', 'pre_v', \
+'post_h', 'post_v']
+        >>> df[["t", "post_v"]].round(4)
+                t   post_v
+        0  1.4278  11.2057
+        1  3.7124   8.9646
+        """
+        from hybridlab.simulation._frames import frame
+
+        fixed = {name: list(getattr(self, name)) if name in self._TEXT_COLUMNS
+                 else getattr(self, name)
+                 for name in ("t", "j", "transition", "source", "target", "kind", "grazing")}
+        return frame(fixed, self.state_names, ("pre_", self.pre.T), ("post_", self.post.T))
+
 
 class _SegmentRecords(_Records):
     """Segments given as columns over one array of points; a :class:`Segment` is made when read."""
