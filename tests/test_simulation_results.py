@@ -63,22 +63,22 @@ def test_repr_and_summary_stay_short_for_every_model(path: Path) -> None:
     result = long_run(path)
     text = repr(result)
     assert len(text) < 1000 and "\n" not in text
-    assert text.startswith("<SimulationResult MAX_EVENTS: t 0 -> 3001, j=3000; 3001 segments, "
+    assert text.startswith("<SimulationResult MAX_EVENTS: t 0.0 -> 3001.0, j=3000; 3001 segments, "
                            "3000 events (3000 jumps), 1000000 steps; states ")
     assert len(result.summary().splitlines()) <= 25
 
 
 def test_repr_of_a_run(ball_run: SimulationResult) -> None:
     text = repr(ball_run)
-    assert text.startswith("<SimulationResult COMPLETED: t 0 -> 3, j=1; 2 segments, 1 events "
-                           "(1 jumps), ")
+    assert text.startswith("<SimulationResult COMPLETED: t 0.0 -> 3.0, j=1; 2 segments, 1 event "
+                           "(1 jump), ")
     assert text.endswith("; states h, v; final mode 'fall'>")
 
 
 def test_summary(thermostat_run: SimulationResult) -> None:
     lines = thermostat_run.summary().splitlines()
-    assert lines[:6] == ["status: COMPLETED: reached t_end = 8.0", "reached: t 0 -> 8, j=3",
-                         "events: 3 (3 jumps)", "  turn_off: 2 jumps", "  turn_on: 1 jumps",
+    assert lines[:6] == ["status: COMPLETED: reached t_end = 8.0", "reached: t 0.0 -> 8.0, j=3",
+                         "events: 3 (3 jumps)", "  turn_off: 2 jumps", "  turn_on: 1 jump",
                          "final: mode cool, T=20.9836"]
     assert lines[6].startswith("run: reference backend, 4 segments, 3 events (3 jumps), ")
 

@@ -95,6 +95,8 @@ def plot(result: SimulationResult, states: str | Sequence[str] | None = None,
         ax.vlines(events.t, 0.0, 1.0, transform=ax.get_xaxis_transform(), colors="0.4",
                   linestyles=":", linewidths=0.8, label=f"events ({len(events)})")
     ax.set_xlabel("t")
+    if len(chosen) == 1:
+        ax.set_ylabel(chosen[0])
     t0, t1 = float(result.segments.t_start[0]), float(result.final.t)
     if t1 > t0:
         ax.set_xlim(t0, t1)

@@ -33,21 +33,21 @@ def _listed(items: list[str], most: int, what: str) -> list[str]:
     return [*items[:most], f"... {len(items) - most} more {what}"]
 
 
-def _number(x: float) -> str:
-    return f"{x:.7g}"
-
-
 def _span(result: SimulationResult) -> str:
     segments = result.segments
-    t0 = float(segments.t_start[0]) if len(segments) else result.final.t
-    return f"t {_number(t0)} -> {_number(result.final.t)}, j={result.final.j}"
+    t0 = float(segments.t_start[0]) if len(segments) else float(result.final.t)
+    return f"t {t0!r} -> {float(result.final.t)!r}, j={result.final.j}"
+
+
+def _count(k: int, noun: str) -> str:
+    return f"{k} {noun}{'' if k == 1 else 's'}"
 
 
 def _counts(result: SimulationResult) -> str:
     stats = result.stats
-    steps = f", {stats['steps']} steps" if "steps" in stats else ""
-    return (f"{len(result.segments)} segments, {len(result.events)} events "
-            f"({len(result.jumps)} jumps){steps}")
+    steps = f", {_count(stats['steps'], 'step')}" if "steps" in stats else ""
+    return (f"{_count(len(result.segments), 'segment')}, {_count(len(result.events), 'event')} "
+            f"({_count(len(result.jumps), 'jump')}){steps}")
 
 
 def short_repr(result: SimulationResult) -> str:
@@ -57,7 +57,7 @@ def short_repr(result: SimulationResult) -> str:
     --------
     >>> import hybridlab
     >>> hybridlab.simulate("models/bouncing_ball.toml", t_end=3.0, backend="reference")
-    <SimulationResult COMPLETED: t 0 -> 3, j=1; 2 segments, 1 events (1 jumps), ... steps; \
+    <SimulationResult COMPLETED: t 0.0 -> 3.0, j=1; 2 segments, 1 event (1 jump), ... steps; \
 states h, v; final mode 'fall'>
     """
     states = ", ".join(_listed([_name(n) for n in result.state_names], _MOST_STATES, "states"))
@@ -68,7 +68,7 @@ states h, v; final mode 'fall'>
 def _event_lines(result: SimulationResult) -> list[str]:
     events = result.events
     counts = Counter(zip(events.transition, events.kind, strict=True))
-    lines = [f"  {_name(label)}: {k} {'jumps' if kind == 'jump' else kind}"
+    lines = [f"  {_name(label)}: {_count(k, kind.replace('_', ' '))}"
              for (label, kind), k in counts.most_common()]
     return _listed(lines, _MOST_TRANSITIONS, "transitions")
 
@@ -82,9 +82,9 @@ def summary(result: SimulationResult) -> str:
     lines.append(f"reached: {_span(result)}")
     if result.zeno_time is not None:
         lines.append(f"zeno_time: {result.zeno_time:.12g}")
-    lines.append(f"events: {len(result.events)} ({len(result.jumps)} jumps)")
+    lines.append(f"events: {len(result.events)} ({_count(len(result.jumps), 'jump')})")
     lines += _event_lines(result)
-    values = _listed([f"{_name(k)}={_number(v)}" for k, v in final.state.items()],
+    values = _listed([f"{_name(k)}={v:.7g}" for k, v in final.state.items()],
                      _MOST_STATES, "states")
     lines += textwrap.wrap(f"final: mode {_name(final.mode)}, {', '.join(values)}", width=100,
                            subsequent_indent="  ", break_on_hyphens=False)

@@ -370,11 +370,11 @@ class SimulationResult:
         >>> print(stopped.summary())
         status: MAX_EVENTS: 1 events logged by t = 1.4278431229...
           stopped after max_events events: raise max_events if this is expected
-        reached: t 0 -> 1.427843, j=1
-        events: 1 (1 jumps)
-          bounce: 1 jumps
+        reached: t 0.0 -> 1.42784312292..., j=1
+        events: 1 (1 jump)
+          bounce: 1 jump
         final: mode fall, h=..., v=...
-        run: reference backend, 2 segments, 1 events (1 jumps), ... steps, ...
+        run: reference backend, 2 segments, 1 event (1 jump), ... steps, ...
         """
         from hybridlab.simulation._summary import summary
 
