@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import math
 import tomllib
+from pathlib import Path
 from typing import Any
 
 from hypothesis import HealthCheck, Phase, example, given, settings
 from hypothesis import strategies as st
 from strategies import (
+    MODEL_FILES,
     MODEL_TEXTS,
     arbitrary_texts,
     damaged_model_tables,
@@ -31,10 +33,11 @@ FUZZ = settings(max_examples=250, deadline=None,
 SMOKE = settings(FUZZ, phases=[Phase.explicit, Phase.reuse, Phase.generate])
 
 
-def load_or_model_error(text: str) -> hybridlab.Model | None:
-    """Load ``text``; a ModelError is fine (and must be one line naming the source)."""
+def load_or_model_error(text: str, path: Path | None = None) -> hybridlab.Model | None:
+    """Load ``text``; a ModelError is fine (and must be one line naming the source).
+    ``path`` is the file the text is from (its imports are relative to it)."""
     try:
-        model = hybridlab.loads_model(text, source="fuzz.toml")
+        model = hybridlab.loads_model(text, source="fuzz.toml", path=path)
     except hybridlab.ModelError as error:
         message = str(error)
         assert message.startswith("fuzz.toml: "), message
@@ -73,8 +76,8 @@ def test_valid_model_strategy_gives_valid_models(data: dict[str, Any]) -> None:
 
 def test_bundled_texts_are_valid_models() -> None:
     assert MODEL_TEXTS
-    for text in MODEL_TEXTS:
-        assert load_or_model_error(text) is not None
+    for path, text in zip(MODEL_FILES, MODEL_TEXTS, strict=True):
+        assert load_or_model_error(text, path) is not None
 
 
 # ----------------------------------------------------------------------------------------
