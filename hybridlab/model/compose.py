@@ -154,6 +154,10 @@ def check_template(name: str, tpl: Template, source: str) -> None:
     data = tpl.model_dump(round_trip=True, exclude={"inputs"})
     data["name"] = name
     data["parameters"] = {**data["parameters"], **{i: {"value": 1.0} for i in tpl.inputs}}
+    if not tpl.states:  # a controller without states: checked with a constant one
+        unused = next(f"unused{k}" for k in itertools.count()
+                      if f"unused{k}" not in declared and f"unused{k}" not in tpl.inputs)
+        data["states"] = {unused: {"initial": 0.0, "flow": "0"}}
     for tr in data["transitions"]:
         if tr.pop("label", None) is not None and not tr["guard"] and tr["schedule"] is None:
             tr["guard"] = ["0 <= 1"]  # a partner's guard decides; checked in the product

@@ -47,7 +47,8 @@ class SyncTransition(Transition):
 
 class Template(_Frozen):
     """An automaton to instantiate: the keys of a flat model less ``name`` and
-    ``scenarios``, plus the ``inputs`` it reads from other instances.
+    ``scenarios``, plus the ``inputs`` it reads from other instances. A template may
+    have no states (a controller that only switches modes).
 
     Examples
     --------
@@ -61,7 +62,7 @@ class Template(_Frozen):
     description: str = ""
     parameters: dict[str, ParameterField] = Field(default_factory=dict)
     inputs: list[str] = Field(default_factory=list)
-    states: dict[str, StateField]
+    states: dict[str, StateField] = Field(default_factory=dict)
     definitions: dict[str, Expression] = Field(default_factory=dict)
     mechanics: Mechanics | None = None
     modes: dict[str, Mode]
