@@ -235,7 +235,7 @@ def user_error_cases(tmp_path: Path) -> list[tuple[list[str], str]]:
         (["frobnicate"],
          "hybridlab: error: argument command: invalid choice: 'frobnicate' "
          "(choose from 'check', 'simulate', 'graph', 'identify', 'import', 'sweep', 'reach', "
-         "'schema')"),
+         "'flatten', 'schema')"),
         ([], "hybridlab: error: the following arguments are required: command"),
         (["check"], "hybridlab: error: the following arguments are required: model"),
         (["simulate", ball, "--t-end", "soon"],
