@@ -15,7 +15,7 @@ from __future__ import annotations
 import graphlib
 import itertools
 import math
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -208,29 +208,22 @@ class _Builder:
                             f"{key}.template", inst.template)
         tpl = self.templates[inst.template].template
         t = inst.template
-        for p in inst.parameters:
-            if p not in tpl.parameters:
-                raise self.fail(f"template {t!r} declares no parameter of this name",
-                                f"{key}.parameters.{p}", p)
-        for s in inst.initial:
-            if s not in tpl.states:
-                raise self.fail(f"template {t!r} declares no state of this name",
-                                f"{key}.initial.{s}", s)
+        template_labels = {tr.label for tr in tpl.transitions if tr.label is not None}
+        declared: tuple[tuple[str, Collection[str], str], ...] = (
+            ("parameters", tpl.parameters, "declares no parameter of this name"),
+            ("initial", tpl.states, "declares no state of this name"),
+            ("connect", tpl.inputs, "declares no input of this name"),
+            ("labels", template_labels, "has no transition with this label"))
+        for section, allowed, what in declared:
+            for given in getattr(inst, section):
+                if given not in allowed:
+                    raise self.fail(f"template {t!r} {what}", f"{key}.{section}.{given}", given)
         if inst.mode is not None and inst.mode not in tpl.modes:
             raise self.fail(f"template {t!r} has no mode of this name", f"{key}.mode", inst.mode)
-        for i in inst.connect:
-            if i not in tpl.inputs:
-                raise self.fail(f"template {t!r} declares no input of this name",
-                                f"{key}.connect.{i}", i)
         for i in tpl.inputs:
             if i not in inst.connect:
                 raise self.fail(f"input {i!r} of template {t!r} is not connected",
                                 f"{key}.connect", i)
-        template_labels = {tr.label for tr in tpl.transitions if tr.label is not None}
-        for label in inst.labels:
-            if label not in template_labels:
-                raise self.fail(f"template {t!r} has no transition with this label",
-                                f"{key}.labels.{label}", label)
         own = [*tpl.parameters, *tpl.states, *tpl.definitions, *sorted(_local_names(tpl))]
         names = {n: f"{name}.{n}" for n in own}
         return _Part(name, t, tpl, names)
