@@ -108,8 +108,12 @@ def test_unique_names_may_be_written_unqualified(
     assert main(["simulate", str(MODELS / "two_rooms.toml"), "--t-end", "1",
                  "--init", "on_time=3", "--set", "room2.a=0.06", "--backend", "reference"]) == 0
     assert "heater.on_time=4" in capsys.readouterr().out  # from 3, heating for 1 minute
-    with pytest.raises(ProblemError, match="unknown parameter 'a'"):
-        HybridProblem.build(rooms, t_end=1.0, params={"a": 0.1})  # two rooms have one
+    with pytest.raises(ProblemError, match="'a' is the parameter of several components; write "
+                                           "one of: room1.a, room2.a"):
+        HybridProblem.build(rooms, t_end=1.0, params={"a": 0.1})
+    # a product mode named by the components' modes that identify it
+    assert HybridProblem.build(rooms, t_end=1.0, mode="room1.on").mode == (
+        "room1.on|room2.off|heater.heat1")
 
 
 def test_check_shows_the_network(capsys: pytest.CaptureFixture[str]) -> None:

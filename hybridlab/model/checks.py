@@ -560,7 +560,7 @@ def build_symbolic(model: Model) -> SymbolicModel:
         for s in scenario.initial:
             if aliases.get(s, s) not in model.states:
                 raise _fail("unknown state", f"{key}.initial.{s}", s)
-        if scenario.mode is not None and scenario.mode not in model.modes:
+        if scenario.mode is not None and len(match_modes(scenario.mode, list(model.modes))) != 1:
             raise _fail("scenario mode is not a mode", f"{key}.mode", scenario.mode)
         if scenario.t_end <= scenario.t_start:
             raise _fail("t_end must be greater than t_start", f"{key}.t_end",

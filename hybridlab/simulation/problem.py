@@ -27,6 +27,7 @@ import numpy as np
 
 from hybridlab.errors import HybridlabError
 from hybridlab.model.loader import load_model
+from hybridlab.model.names import match_modes
 from hybridlab.model.schema import Model, Scenario
 from hybridlab.simulation.options import SimulationOptions
 from hybridlab.symbolic.compile import CompiledModel, compile_model
@@ -123,6 +124,10 @@ def interval(value: Any, what: str) -> tuple[float, float]:
 
 
 def _unknown(what: str, kind: str, name: str, names: tuple[str, ...]) -> ProblemError:
+    same = [n for n in names if n.endswith(f".{name}")]
+    if len(same) > 1:  # the unqualified name of several components' variables
+        return ProblemError(f"{what}: {name!r} is the {kind} of several components; write "
+                            f"one of: {', '.join(same)}")
     return ProblemError(f"{what}: unknown {kind} {name!r}; expected one of: "
                         f"{', '.join(names) or 'none'}")
 
@@ -251,6 +256,8 @@ class HybridProblem:
             raise ProblemError(f"t_end must be greater than t_start = {t0:g} (got "
                                f"t_end={t_end!r})")
         mode = mode or (sc.mode if sc is not None and sc.mode else spec.initial.mode)
+        if len(matched := match_modes(mode, list(spec.modes))) == 1:
+            mode = matched[0]  # a product mode named by some of its components' modes
         if mode not in spec.modes:
             raise _unknown("mode", "mode", mode, tuple(spec.modes))
         fixed_p, param_box, input_box = _parameters(compiled, sc, params, inputs)
