@@ -105,6 +105,9 @@ def test_unique_names_may_be_written_unqualified(
     assert list(parse_spec("room1.on: room1.T <= 23", rooms).rows) == [
         "room1.on|room2.off|heater.heat1"]
     assert parse_spec("on_time <= 100", rooms).rows
+    with pytest.raises(ValueError, match="several components have this name; write one of: "
+                                         "room1.T, room2.T"):
+        parse_spec("T <= 30", rooms)
     assert main(["simulate", str(MODELS / "two_rooms.toml"), "--t-end", "1",
                  "--init", "on_time=3", "--set", "room2.a=0.06", "--backend", "reference"]) == 0
     assert "heater.on_time=4" in capsys.readouterr().out  # from 3, heating for 1 minute

@@ -463,6 +463,10 @@ class _Builder:
                 return CONSTANTS[node.id]
             if node.id in FUNCTIONS:
                 raise ExpressionError("function used without arguments", node.id)
+            same = sorted(name for name in self.symbols if name.endswith(f".{node.id}"))
+            if len(same) > 1:  # the unqualified name of several components' variables
+                raise ExpressionError(f"several components have this name; write one of: "
+                                      f"{', '.join(same)}", node.id)
             raise ExpressionError("unknown symbol", node.id)
         if isinstance(node, ast.BinOp):
             op = type(node.op)
