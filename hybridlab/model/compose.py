@@ -30,7 +30,7 @@ __all__ = ["MAX_PRODUCT_MODES", "MAX_PRODUCT_TRANSITIONS", "Component", "Network
 #: The most modes a product may have (the product of the components' mode counts).
 MAX_PRODUCT_MODES = 4096
 #: The most transitions a product may have (synchronised combinations included).
-MAX_PRODUCT_TRANSITIONS = 20_000
+MAX_PRODUCT_TRANSITIONS = 4096
 
 
 @dataclass(frozen=True)
@@ -460,12 +460,15 @@ def _reachable(modes: dict[str, Any], transitions: list[dict[str, Any]], starts:
     """The modes the transitions can reach from ``starts`` (guards aside), and the
     transitions restricted to them: the other combinations of the components' modes
     (room 1 heated while the heater is idle) can never be entered."""
+    sources = [None if tr["source"] == "*" else
+               [frozenset(p.split(SEPARATOR)) for p in _patterns(tr)] for tr in transitions]
     seen = dict.fromkeys(starts)
     stack = list(seen)
     while stack:
         mode = stack.pop()
-        for tr in transitions:
-            if tr["source"] == "*" or any(match_modes(p, [mode]) for p in _patterns(tr)):
+        parts = frozenset(mode.split(SEPARATOR))
+        for tr, patterns in zip(transitions, sources, strict=True):
+            if patterns is None or any(p <= parts for p in patterns):
                 target = mode_target(mode, tr["target"])
                 if target in modes and target not in seen:
                     seen[target] = None
