@@ -31,7 +31,13 @@ from __future__ import annotations
 import numpy as np
 
 from hybridlab.reachability.balls import expm_power_enclosure
-from hybridlab.reachability.linear import Propagator, affine_step, assemble, interval_map
+from hybridlab.reachability.linear import (
+    Propagator,
+    affine_step,
+    assemble,
+    homogeneous,
+    interval_map,
+)
 from hybridlab.reachability.rounding import product_error, up
 from hybridlab.reachability.sets import Zonotope
 
@@ -85,6 +91,8 @@ class AffineChain:
         self.first = affine_step(P, prop, W)
         self.X0 = P
         self.H0 = self.first[1].reduce(order, basis)
+        # the two sets every step maps, in homogeneous coordinates (formed once)
+        self._X0h, self._H0h = homogeneous(self.X0), homogeneous(self.H0)
         WG, w_box = prop.input_set(W, n)
         self.V = (WG, w_box) if WG.size or np.any(w_box > 0) else None
         # the sum keeps generators while H_k stays within the order
@@ -93,6 +101,7 @@ class AffineChain:
         if self.V is not None:
             self.S.add(np.eye(n), np.zeros((n, n)), *self.V)  # S_1 = V
         self.M, self.M_rad = prop.phi.copy(), prop.phi_rad.copy()  # Phi^k for k = 1
+        self._abs_phi = np.abs(prop.phi)
         self.steps = 1
         self.refreshed = 0  # times Phi^k was enclosed afresh
 
@@ -100,24 +109,27 @@ class AffineChain:
     def worn(self) -> bool:
         """Whether the enclosure of ``Phi^k`` has grown too wide to continue (even when
         enclosed afresh: the chain should then start again from the current set)."""
-        return bool(np.max(self.M_rad) > _WORN * (1.0 + float(np.max(np.abs(self.M)))))
+        return self._worn(np.abs(self.M))
+
+    def _worn(self, abs_M: np.ndarray) -> bool:
+        return bool(self.M_rad.max() > _WORN * (1.0 + float(abs_M.max())))
 
     def advance(self) -> tuple[Zonotope, Zonotope]:
         """``(X_{k+1}, H_k)`` for the next ``k``: the next step's end set and its flowpipe."""
         n = self.n
-        H = self._plus_sum(*interval_map(self.M, self.M_rad, self.H0))
+        H = self._plus_sum(*interval_map(self.M, self.M_rad, self._H0h))
         if self.V is not None:
             self.S.add(self.M[:n, :n], self.M_rad[:n, :n], *self.V)  # S_{k+1} = S_k + Phi^k V
-        phi, phi_rad = self.prop.phi, self.prop.phi_rad
-        abs_phi, abs_M = np.abs(phi), np.abs(self.M)
+        phi, phi_rad, abs_phi = self.prop.phi, self.prop.phi_rad, self._abs_phi
+        abs_M = np.abs(self.M)
         self.M_rad = up(abs_phi @ self.M_rad + phi_rad @ (abs_M + self.M_rad)
                         + product_error(abs_phi, abs_M))
         self.M = phi @ self.M
         self.steps += 1
-        if self.worn:  # enclose Phi^k afresh, in ball arithmetic
+        if self._worn(np.abs(self.M)):  # enclose Phi^k afresh, in ball arithmetic
             self.M, self.M_rad = expm_power_enclosure(self.prop.Ah, self.prop.r, self.steps)
             self.refreshed += 1
-        X = self._plus_sum(*interval_map(self.M, self.M_rad, self.X0))
+        X = self._plus_sum(*interval_map(self.M, self.M_rad, self._X0h))
         return X, H
 
     def _plus_sum(self, c: np.ndarray, G: np.ndarray, err: np.ndarray) -> Zonotope:

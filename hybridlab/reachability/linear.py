@@ -66,7 +66,7 @@ class StepError(HybridlabError, ArithmeticError):
 
 def _abs_z(Z: Zonotope) -> np.ndarray:
     """``max |x|`` over ``Z`` per coordinate."""
-    return up(np.abs(Z.center) + np.sum(np.abs(Z.generators), axis=1), Z.generators.shape[1] + 1)
+    return up(np.abs(Z.center) + np.abs(Z.generators).sum(axis=1), Z.generators.shape[1] + 1)
 
 
 def _box(radius: np.ndarray) -> np.ndarray:
@@ -362,16 +362,35 @@ class Propagator:
         return gens, up(err[:n])
 
 
-def _homogeneous(P: Zonotope) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    ch = np.r_[P.center, 1.0]
-    Gh = np.vstack([P.generators, np.zeros((1, P.generators.shape[1]))])
-    return ch, Gh, np.r_[_abs_z(P), 1.0]
+Homogeneous = tuple[np.ndarray, np.ndarray, np.ndarray]
+"""A set in homogeneous coordinates ``x_h = (x, 1)``: its centre, its generators and
+``max |x_h|`` per coordinate (see :func:`homogeneous`)."""
 
 
-def interval_map(phi: np.ndarray, phi_rad: np.ndarray, P: Zonotope
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def homogeneous(P: Zonotope) -> Homogeneous:
+    """``P`` in homogeneous coordinates: ``(center, generators, max |x_h|)``.
+
+    Examples
+    --------
+    >>> ch, Gh, size = homogeneous(Zonotope([1.0], [[0.5]]))
+    >>> ch.tolist(), Gh.tolist(), bool(size[0] >= 1.5 and size[1] == 1.0)
+    ([1.0, 1.0], [[0.5], [0.0]], True)
+    """
+    n, m = P.generators.shape
+    ch = np.empty(n + 1)
+    ch[:n], ch[n] = P.center, 1.0
+    Gh = np.zeros((n + 1, m))
+    Gh[:n] = P.generators
+    size = np.empty(n + 1)
+    size[:n], size[n] = _abs_z(P), 1.0
+    return ch, Gh, size
+
+
+def interval_map(phi: np.ndarray, phi_rad: np.ndarray, P: Zonotope | Homogeneous
+                 ) -> Homogeneous:
     """``(center, generators, box)`` in homogeneous coordinates containing ``M x_h`` for
-    every ``M`` within ``phi +- phi_rad`` and every ``x`` of ``P`` (``x_h = (x, 1)``).
+    every ``M`` within ``phi +- phi_rad`` and every ``x`` of ``P`` (``x_h = (x, 1)``;
+    ``P`` may be given in those coordinates already, as :func:`homogeneous` forms it).
 
     Examples
     --------
@@ -385,7 +404,7 @@ def interval_map(phi: np.ndarray, phi_rad: np.ndarray, P: Zonotope
     >>> bool(np.all(box < 1e-14))
     True
     """
-    ch, Gh, absP = _homogeneous(P)
+    ch, Gh, absP = homogeneous(P) if isinstance(P, Zonotope) else P
     return phi @ ch, phi @ Gh, up(phi_rad @ absP + product_error(np.abs(phi), absP))
 
 
@@ -402,7 +421,7 @@ def assemble(center: np.ndarray, gens: np.ndarray, box: np.ndarray, bloat: float
     >>> Z.generators.shape, Z.bounds().round(9).tolist()
     ((1, 2), [[0.49, 1.51]])
     """
-    size = up(np.abs(center) + np.sum(np.abs(gens), axis=1) + box)
+    size = up(np.abs(center) + np.abs(gens).sum(axis=1) + box)
     extra = up(box + (4 * U + bloat) * size)
     return Zonotope(center, np.hstack([gens, _box(extra)]))
 
@@ -441,8 +460,8 @@ def affine_step(P: Zonotope, prop: Propagator, W: Zonotope | None = None,
     [[-0.1, 1.1]]
     """
     n = P.dim
-    ch, Gh, absP = _homogeneous(P)
-    c1, G1, err = interval_map(prop.phi, prop.phi_rad, P)
+    ch, Gh, absP = homogeneous(P)
+    c1, G1, err = interval_map(prop.phi, prop.phi_rad, (ch, Gh, absP))
     WG, w_box = prop.input_set(W, n)
     P_next = assemble(c1[:n], np.hstack([G1[:n], WG]), up(err[:n] + w_box), bloat)
     center, gens, box = prop.between(ch, Gh, c1, G1, absP)

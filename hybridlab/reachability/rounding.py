@@ -27,6 +27,7 @@ True
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -41,6 +42,7 @@ TINY = 2.0 ** -1000
 
 
 
+@functools.lru_cache(maxsize=4096)
 def gamma(k: int) -> float:
     """``k u / (1 - k u)``, rounded up: the relative error bound of ``k`` roundings.
 
@@ -62,7 +64,9 @@ def up(x: np.ndarray | float, terms: int = 1024) -> np.ndarray:
     (True, True)
     """
     factor = _UP_1024 if terms <= 1024 else 1.0 + gamma(terms)
-    return np.asarray(x, dtype=float) * factor + TINY
+    out = np.asarray(x, dtype=float) * factor
+    out += TINY
+    return out
 
 
 _UP_1024 = 1.0 + gamma(1024)

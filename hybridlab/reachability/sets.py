@@ -42,7 +42,7 @@ class SetError(HybridlabError, ValueError):
 
 def _vector(x: ArrayLike, name: str) -> np.ndarray:
     v = np.array(x, dtype=float).reshape(-1)
-    if not np.all(np.isfinite(v)):
+    if not np.isfinite(v).all():
         raise SetError(f"{name} must be finite (got {v.tolist()})")
     return v
 
@@ -154,7 +154,7 @@ class Zonotope:
             G = G.reshape(c.size, 0)
         if G.ndim != 2 or G.shape[0] != c.size:
             raise SetError(f"generators must have shape ({c.size}, m) (got {G.shape})")
-        if not np.all(np.isfinite(G)):
+        if not np.isfinite(G).all():
             raise SetError("generators must be finite")
         object.__setattr__(self, "center", c)
         object.__setattr__(self, "generators", G)
@@ -170,7 +170,7 @@ class Zonotope:
 
     def radius(self) -> np.ndarray:
         """Half-widths of the interval hull (rounded up)."""
-        return up(np.sum(np.abs(self.generators), axis=1), self.generators.shape[1])
+        return up(np.abs(self.generators).sum(axis=1), self.generators.shape[1])
 
     def bounds(self) -> np.ndarray:
         """The interval hull, shape ``(n, 2)``, rounded outward."""

@@ -117,6 +117,11 @@ class Rows:
                 self.b[i] = float(e.xreplace(zero))
         self._interval: IntervalFunction | None = (IntervalFunction(self.exprs, zsyms)
                                                    if self.size else None)
+        # the rows by kind, for range (run at every step)
+        self._lin = np.flatnonzero(self.linear)
+        self._a_lin, self._b_lin = self.a[self._lin], self.b[self._lin]
+        self._abs_b_lin = np.abs(self._b_lin)
+        self._nonlin = np.flatnonzero(~self.linear)
 
     def range(self, Z, box: np.ndarray | None = None) -> np.ndarray:
         """Enclosure ``(size, 2)`` of every row over the zonotope ``Z``."""
@@ -124,15 +129,15 @@ class Rows:
         if self.size == 0:
             return out
         G, c = Z.generators, Z.center
-        lin = np.flatnonzero(self.linear)
+        lin = self._lin
         if lin.size:
-            a = self.a[lin]
-            mid = a @ c + self.b[lin]
-            rad = np.sum(np.abs(a @ G), axis=1)
-            slack = 1e-13 * (np.abs(mid) + rad + np.abs(self.b[lin])) + 1e-300
+            a = self._a_lin
+            mid = a @ c + self._b_lin
+            rad = np.abs(a @ G).sum(axis=1)
+            slack = 1e-13 * (np.abs(mid) + rad + self._abs_b_lin) + 1e-300
             out[lin, 0] = mid - rad - slack
             out[lin, 1] = mid + rad + slack
-        nonlin = np.flatnonzero(~self.linear)
+        nonlin = self._nonlin
         if nonlin.size:
             box = Z.bounds() if box is None else box
             if self._interval is None:  # built whenever there are rows
