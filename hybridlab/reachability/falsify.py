@@ -49,6 +49,10 @@ _REFERENCE_TOTAL_STEPS = 600
 (whose loading costs about as much as 600 reference steps, and compiling a model not yet
 in the cache much more). Counted in steps, not seconds, so that which engine runs which
 simulation is deterministic."""
+_REFERENCE_PROJECTED_STEPS = 1200
+"""The search also moves once the runs still planned in its stage, at the steps of the
+last run, would take the total past this (a stage of 21 runs of 110 steps moves after its
+first run, not its sixth)."""
 
 
 def run_point(problem: HybridProblem, x0: np.ndarray, p: np.ndarray,
@@ -278,6 +282,7 @@ class FalsificationSearch:
         # is falsified without loading the compiled kernel (only under backend="auto",
         # and only while this process has not loaded the kernel anyway)
         self._reference_steps = 0 if _reference_first(problem) else None
+        self._planned = 0  # runs still planned in the current stage, after the current one
 
     def sample(self) -> Falsification:
         """Simulate the centre, the corners and the Latin-hypercube samples."""
@@ -298,7 +303,9 @@ class FalsificationSearch:
         return self._found
 
     def _sample(self) -> Counterexample | None:
-        for u in _sample_plan(self.problem.dims, self.options, self._rng):
+        plan = _sample_plan(self.problem.dims, self.options, self._rng)
+        for i, u in enumerate(plan):
+            self._planned = len(plan) - i - 1  # runs after this one
             evaluated = self._evaluate(u)
             if evaluated is not None and any(m.violation_t is not None for m in evaluated[0]):
                 return self._counterexample(u, evaluated)
@@ -308,6 +315,7 @@ class FalsificationSearch:
         d = self.problem.dims
         if not (d and self.options.local_evals):
             return None
+        self._planned = self.options.local_evals
         for i in range(len(self.specs)):
             starts = sorted(self._best_u[i], key=lambda item: item[0])[:self.options.local_starts]
             for _, u0 in starts:
@@ -342,8 +350,11 @@ class FalsificationSearch:
             short = replace(options, backend="reference",
                             max_steps=min(options.max_steps, _REFERENCE_STEPS))
             result = run_point(self.problem, x0, p, short)
-            self._reference_steps += int(result.stats.get("steps", 0))
-            if self._reference_steps > _REFERENCE_TOTAL_STEPS:
+            steps = int(result.stats.get("steps", 0))
+            self._reference_steps += steps
+            projected = self._reference_steps + steps * self._planned
+            if (self._reference_steps > _REFERENCE_TOTAL_STEPS
+                    or projected > _REFERENCE_PROJECTED_STEPS):
                 self._reference_steps = None  # from the next run on: the compiled kernel
             if result.status is not Status.STEP_LIMIT or options.max_steps <= _REFERENCE_STEPS:
                 return result
