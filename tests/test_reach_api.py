@@ -226,3 +226,27 @@ def test_bad_executor_is_a_one_line_reach_error(thermostat, executor, token):
     with pytest.raises(ReachError, match="^executor: ") as info:
         reach(thermostat, initial=THERMO_INIT, t_end=1.0, split=2, executor=executor)
     assert token in str(info.value) and "\n" not in str(info.value)
+
+
+def test_a_reset_to_a_parameter_value_is_taken():
+    # a reset whose whole right-hand side is a known parameter (``h = h_top``)
+    model = hybridlab.loads_model('''
+name = "teleport"
+parameters = { h_top = 5.0 }
+states = { h = 1.0, v = 0.0 }
+modes.fall = { flow = { h = "v", v = "-9.81" }, invariant = ["h >= 0"] }
+initial = { mode = "fall" }
+
+[[transitions]]
+name = "lift"
+source = "fall"
+target = "fall"
+guard = "h <= 0"
+reset = { h = "h_top", v = "0" }
+''')
+    result = reach(model, initial={"h": (0.5, 1.0)}, t_end=1.0, step=0.01)
+    assert result.complete
+    after = [rs for rs in result.sets if rs.jumps == 1]
+    first = min(after, key=lambda rs: rs.t[0])
+    lo, hi = first.bounds()[0]
+    assert 4.9 <= lo <= 5.0 <= hi <= 5.1

@@ -342,7 +342,9 @@ def build_system(compiled: CompiledModel, values: np.ndarray,
                                        [sym.states[i] for i in mech.velocities])
 
     def subs(e: sp.Expr) -> sp.Expr:
-        return as_expression(e).xreplace(fixed)
+        # as_expression again: an expression that is one fixed parameter (a reset
+        # ``x_e = p``) becomes that parameter's value, which xreplace leaves a float
+        return as_expression(as_expression(e).xreplace(fixed))
 
     flows = {name: tuple(subs(e) for e in mode_flow(sym, name, equations))
              for name in sym.modes}
