@@ -45,7 +45,8 @@ def test_check_prints_a_summary(capsys: pytest.CaptureFixture[str]) -> None:
     assert out == (
         "model 'bouncing_ball': OK\n"
         "  Ball dropped on a rigid floor\n"
-        "  states (2): h, v\n"
+        "  states: 2 continuous, 0 discrete\n"
+        "    continuous: h, v\n"
         "  parameters (2): g, e\n"
         "  modes (1), initial 'fall':\n"
         "    fall: 1 outgoing, 1 invariant(s)\n"

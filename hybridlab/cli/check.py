@@ -14,8 +14,9 @@ __all__ = ["add_parser", "summary"]
 
 
 def summary(model: Model) -> str:
-    """The summary ``check`` prints: states, parameters, modes, transitions, scenarios,
-    and for a model built from components its network (instances, connections, labels).
+    """The summary ``check`` prints: states (continuous and discrete), parameters, modes,
+    transitions, scenarios, and for a model built from components its network (instances,
+    connections, labels).
 
     Examples
     --------
@@ -43,7 +44,12 @@ def summary(model: Model) -> str:
         lines.append(f"  {' '.join(model.description.split())}")
     if model.network is not None:
         lines.extend(model.network.describe())
-    lines.append(f"  states ({len(model.states)}): {', '.join(model.states)}")
+    lines.append(f"  states: {len(model.states)} continuous, {len(model.discrete)} discrete")
+    if model.states:
+        lines.append(f"    continuous: {', '.join(model.states)}")
+    if model.discrete:
+        lines.append("    discrete: " + ", ".join(f"{name} ({var.type})"
+                                                 for name, var in model.discrete.items()))
     lines.append(f"  parameters ({len(model.parameters)}): {', '.join(model.parameters) or '-'}")
     lines.append(f"  modes ({len(model.modes)}), initial {model.initial.mode!r}:")
     for name, mode in compiled.modes.items():

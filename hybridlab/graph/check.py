@@ -35,6 +35,9 @@ __all__ = [
 
 #: The label of the parameter set made of the model's own values.
 MODEL_VALUES = "model values"
+#: A question over at most this many boolean variables is answered once per combination
+#: of their values (0 or 1); over more, each is bounded to [0, 1] instead.
+MAX_FLAG_COMBINATIONS = 4
 
 
 class Severity(StrEnum):
@@ -311,12 +314,31 @@ class _Checker:
         self.max_boxes = max_boxes
         self.decisions: dict[tuple, Decision] = {}
         self.memo: dict[tuple, object] = {}
+        self.flags = frozenset(s for s, name in zip(sym.states, sym.state_names, strict=True)
+                               if sym.discrete.get(name) == "bool")
 
     def decide(self, rows: Sequence[sp.Expr]) -> Decision:
         key = tuple(rows)
         if key not in self.decisions:
-            self.decisions[key] = decide(rows, tol=self.tol, max_boxes=self.max_boxes)
+            self.decisions[key] = self._decide(list(rows))
         return self.decisions[key]
+
+    def _decide(self, rows: list[sp.Expr]) -> Decision:
+        """Decide ``rows``; a boolean variable takes its values 0 and 1 only (a guard
+        ``armed`` after a reset ``armed = 1 - armed`` is not one half)."""
+        flags = sorted(self.flags & set().union(*(r.free_symbols for r in rows)), key=str)
+        if not flags:
+            return decide(rows, tol=self.tol, max_boxes=self.max_boxes)
+        if len(flags) > MAX_FLAG_COMBINATIONS:
+            bounds = [row for f in flags for row in (f, 1 - f)]
+            return decide(rows + bounds, tol=self.tol, max_boxes=self.max_boxes)
+        cases = [decide([r.xreplace(dict(zip(flags, values, strict=True))) for r in rows],
+                        tol=self.tol, max_boxes=self.max_boxes)
+                 for values in itertools.product((sp.Integer(0), sp.Integer(1)),
+                                                 repeat=len(flags))]
+        verdict = _combine([c.verdict for c in cases])
+        chosen = next((c for c in cases if c.verdict is verdict), cases[0])
+        return Decision(verdict, chosen.method, chosen.margin, chosen.reason)
 
     @staticmethod
     def _key(edges: Sequence[_Edge], ps: _ParameterSet) -> tuple:

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import sympy as sp
 
 from hybridlab.errors import ExpressionError, ModelError
+from hybridlab.model.discrete import value_problem
 from hybridlab.model.expressions import (
     MAX_TREE_NODES,
     Inequality,
@@ -158,7 +159,8 @@ class SymbolicModel:
     """The sympy form of a :class:`~hybridlab.model.schema.Model`.
 
     Definitions are substituted everywhere, so every expression is over
-    states, parameters and ``t`` only.
+    states, parameters and ``t`` only. The discrete variables come last among the
+    states, each with the flow 0 in every mode; :attr:`discrete` gives their types.
 
     Examples
     --------
@@ -182,6 +184,34 @@ class SymbolicModel:
     mechanics: SymbolicMechanics | None = None
     local_names: frozenset[str] = frozenset()
     aliases: Mapping[str, str] = field(default_factory=dict)
+    discrete: Mapping[str, str] = field(default_factory=dict)
+
+    @property
+    def continuous(self) -> int:
+        """How many states are integrated (the first ones; the discrete variables follow).
+
+        Examples
+        --------
+        >>> from hybridlab.model.loader import loads_model
+        >>> sym = loads_model('''
+        ... name = "counter"
+        ... states = { x = 0.0 }
+        ... discrete = { count = 0, armed = false }
+        ... modes.m.flow.x = "1"
+        ... initial.mode = "m"
+        ... [[transitions]]
+        ... name = "tick"
+        ... source = "m"
+        ... target = "m"
+        ... guard = "x >= 1"
+        ... reset = { x = "0", count = "count + 1" }
+        ... ''').symbolic
+        >>> sym.state_names, sym.continuous, sym.discrete
+        (('x', 'count', 'armed'), 1, {'count': 'int', 'armed': 'bool'})
+        >>> sym.modes["m"].flow
+        (1, 0, 0)
+        """
+        return len(self.state_names) - len(self.discrete)
 
     @property
     def time(self) -> sp.Symbol:
@@ -227,9 +257,10 @@ def _parse(text: str, names: Mapping[str, sp.Expr], key: str) -> sp.Expr:
         raise _fail(exc.message, key, exc.token) from None
 
 
-def _relations(text: str, names: Mapping[str, sp.Expr], key: str) -> tuple[Inequality, ...]:
+def _relations(text: str, names: Mapping[str, sp.Expr], key: str,
+               flags: frozenset[sp.Symbol] = frozenset()) -> tuple[Inequality, ...]:
     try:
-        return tuple(parse_relation(text, names))
+        return tuple(parse_relation(text, names, flags=flags))
     except ExpressionError as exc:
         raise _fail(exc.message, key, exc.token) from None
 
@@ -237,7 +268,7 @@ def _relations(text: str, names: Mapping[str, sp.Expr], key: str) -> tuple[Inequ
 def _declared_names(model: Model) -> set[str]:
     """Check every declared name; return the names of mode-local definitions."""
     seen: dict[str, str] = {}
-    for section in ("parameters", "states", "definitions"):
+    for section in ("parameters", "states", "discrete", "definitions"):
         for name in getattr(model, section):
             try:
                 check_qualified_name(name)
@@ -349,8 +380,10 @@ def _local_symbol(name: str) -> sp.Symbol:
 class _ModeScope:
     """Substitutes a mode's local definitions; a missing one is an error."""
 
-    def __init__(self, mode_name: str, local: dict[str, sp.Expr], all_local: set[str]) -> None:
+    def __init__(self, mode_name: str, local: dict[str, sp.Expr], all_local: set[str],
+                 flags: frozenset[sp.Symbol] = frozenset()) -> None:
         self.mode_name = mode_name
+        self.flags = flags
         self.mapping = {_local_symbol(n): e for n, e in local.items()}
         self.missing = {_local_symbol(n): n for n in all_local if n not in local}
 
@@ -361,7 +394,7 @@ class _ModeScope:
         for i, text in enumerate(texts):
             k = f"{key}[{i}]"
             out.extend(Inequality(self.apply(r.expr, k), r.strict, r.text)
-                       for r in _relations(text, names, k))
+                       for r in _relations(text, names, k, self.flags))
         return tuple(out)
 
     def apply(self, expr: sp.Expr, key: str) -> sp.Expr:
@@ -432,7 +465,8 @@ def build_symbolic(model: Model) -> SymbolicModel:
     (True, (v, -g))
     """
     all_local = _declared_names(model)
-    state_names = tuple(model.states)
+    kinds = _discrete_kinds(model)
+    state_names = (*model.states, *model.discrete)
     parameter_names = tuple(model.parameters)
     states = tuple(sp.Symbol(n, real=True) for n in state_names)
     parameters = tuple(sp.Symbol(n, real=True) for n in parameter_names)
@@ -442,6 +476,9 @@ def build_symbolic(model: Model) -> SymbolicModel:
     base_with_local = {**base, **{n: _local_symbol(n) for n in all_local}}
     aliases = unqualified_aliases([*parameter_names, *state_names, *model.definitions,
                                    *sorted(all_local)])
+    flags = frozenset(base[n] for n, kind in kinds.items() if kind == "bool")
+    integers = {base[n]: sp.Symbol(n, integer=True) for n, kind in kinds.items()
+                if kind != "real"}
     base_with_local.update({alias: base_with_local[full] for alias, full in aliases.items()
                             if full in base_with_local})
     definitions = _definitions(model.definitions, base_with_local, "definitions", aliases)
@@ -466,26 +503,29 @@ def build_symbolic(model: Model) -> SymbolicModel:
             raise _fail("'*' stands for every mode in a transition; a mode may not be named "
                         "'*' or ''", "modes", mode_name)
         local = _definitions(mode.definitions, names, f"{key}.definitions")
-        scope = _ModeScope(mode_name, local, all_local)
+        scope = _ModeScope(mode_name, local, all_local, flags)
         scopes[mode_name] = scope
         for state in mode.flow:
+            if state in kinds:
+                raise _fail("a discrete variable has no flow: it changes only in resets",
+                            f"{key}.flow.{state}", state)
             if state not in model.states:
                 raise _fail("flow given for an unknown state", f"{key}.flow.{state}", state)
-        missing = [s for s in state_names if s not in mode.flow and s not in mech_states
+        missing = [s for s in model.states if s not in mode.flow and s not in mech_states
                    and model.states[s].flow is None]
         if missing:
             raise _fail(f"state {missing[0]!r} has no flow in mode {mode_name!r}",
                         f"{key}.flow", missing[0])
         flow_texts = {s: (mode.flow[s], f"{key}.flow.{s}") for s in mode.flow}
-        for s in state_names:
+        for s in model.states:
             if (s not in flow_texts and s not in mech_states
                     and (state_flow := model.states[s].flow) is not None):
                 flow_texts[s] = (state_flow, f"states.{s}.flow")
         flow = tuple(
             scope.apply(_parse(flow_texts[s][0], names, flow_texts[s][1]), flow_texts[s][1])
             if s in flow_texts else None
-            for s in state_names
-        )
+            for s in model.states
+        ) + (sp.Integer(0),) * len(kinds)
         invariants = scope.relations(mode.invariant, names, f"{key}.invariant")
         forces = tuple(
             scope.apply(_parse(force_texts[c], names, f"mechanics.forces.{c}"),
@@ -519,7 +559,7 @@ def build_symbolic(model: Model) -> SymbolicModel:
         if not tr.guard and tr.schedule is None:
             raise _fail("a transition needs a guard or a schedule", f"{key}.guard", tr.name)
         for state in tr.reset:
-            if state not in model.states:
+            if state not in model.states and state not in kinds:
                 raise _fail("reset of an unknown state", f"{key}.reset.{state}", state)
         period = phase = None
         enabled: sp.Expr = sp.Integer(1)
@@ -541,6 +581,9 @@ def build_symbolic(model: Model) -> SymbolicModel:
                 if s in tr.reset else sym
                 for s, sym in zip(state_names, states, strict=True)
             )
+            for s, expr in zip(state_names, reset, strict=True):
+                if s in tr.reset and s in kinds:
+                    _check_reset(kinds[s], expr, integers, f"{key}.reset.{s}", tr.reset[s])
             transitions.append(SymbolicTransition(
                 index=len(transitions), name=tr.name, source=source,
                 target=mode_target(source, tr.target),
@@ -557,9 +600,13 @@ def build_symbolic(model: Model) -> SymbolicModel:
         for p in scenario.parameters:
             if aliases.get(p, p) not in model.parameters:
                 raise _fail("unknown parameter", f"{key}.parameters.{p}", p)
-        for s in scenario.initial:
-            if aliases.get(s, s) not in model.states:
+        for s, value in scenario.initial.items():
+            name = aliases.get(s, s)
+            if name not in model.states and name not in kinds:
                 raise _fail("unknown state", f"{key}.initial.{s}", s)
+            problem = value_problem(kinds.get(name, "real"), value)
+            if problem is not None:
+                raise _fail(problem, f"{key}.initial.{s}", _written(value))
         if scenario.mode is not None and len(match_modes(scenario.mode, list(model.modes))) != 1:
             raise _fail("scenario mode is not a mode", f"{key}.mode", scenario.mode)
         if scenario.t_end <= scenario.t_start:
@@ -577,4 +624,36 @@ def build_symbolic(model: Model) -> SymbolicModel:
         mechanics=mechanics,
         local_names=frozenset(all_local),
         aliases=aliases,
+        discrete=kinds,
     )
+
+
+def _written(value: object) -> str:
+    """A value as a model file writes it (``true``, ``2.5``)."""
+    return str(value).lower() if isinstance(value, bool) else repr(value)
+
+
+def _discrete_kinds(model: Model) -> dict[str, str]:
+    """Each discrete variable's type, its value checked against it."""
+    for name, var in model.discrete.items():
+        problem = value_problem(var.type, var.value)
+        if problem is not None:
+            raise _fail(problem, f"discrete.{name}.value", _written(var.value))
+    return {name: var.type for name, var in model.discrete.items()}
+
+
+def _check_reset(kind: str, expr: sp.Expr, integers: Mapping[sp.Symbol, sp.Symbol], key: str,
+                 text: str) -> None:
+    """Refuse a reset of a bool or int variable whose value is known not to fit: a number
+    that does not, or an expression that can never be a whole number. Other values are
+    checked when the jump happens (:mod:`hybridlab.model.discrete`)."""
+    if kind == "real":
+        return
+    problem = None
+    if expr.is_number:
+        if expr.is_real:
+            problem = value_problem(kind, float(expr))
+    elif expr.xreplace(integers).is_integer is False:
+        problem = f"a {kind} variable takes whole numbers; this reset never gives one"
+    if problem is not None:
+        raise _fail(problem, key, text)

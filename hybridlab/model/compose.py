@@ -138,7 +138,8 @@ def check_template(name: str, tpl: Template, source: str) -> None:
         check_name(name)
     except ExpressionError as exc:
         raise _fail(exc.message, key, exc.token, source) from None
-    declared = {*tpl.parameters, *tpl.states, *tpl.definitions, *_local_names(tpl)}
+    declared = {*tpl.parameters, *tpl.states, *tpl.discrete, *tpl.definitions,
+                *_local_names(tpl)}
     for i, inp in enumerate(tpl.inputs):
         try:
             check_name(inp)
@@ -154,7 +155,7 @@ def check_template(name: str, tpl: Template, source: str) -> None:
     data = tpl.model_dump(round_trip=True, exclude={"inputs"})
     data["name"] = name
     data["parameters"] = {**data["parameters"], **{i: {"value": 1.0} for i in tpl.inputs}}
-    if not tpl.states:  # a controller without states: checked with a constant one
+    if not tpl.states and not tpl.discrete:  # a controller: checked with a constant state
         unused = next(f"unused{k}" for k in itertools.count()
                       if f"unused{k}" not in declared and f"unused{k}" not in tpl.inputs)
         data["states"] = {unused: {"initial": 0.0, "flow": "0"}}
@@ -211,7 +212,8 @@ class _Builder:
         template_labels = {tr.label for tr in tpl.transitions if tr.label is not None}
         declared: tuple[tuple[str, Collection[str], str], ...] = (
             ("parameters", tpl.parameters, "declares no parameter of this name"),
-            ("initial", tpl.states, "declares no state of this name"),
+            ("initial", {*tpl.states, *tpl.discrete},
+             "declares no state or discrete variable of this name"),
             ("connect", tpl.inputs, "declares no input of this name"),
             ("labels", template_labels, "has no transition with this label"))
         for section, allowed, what in declared:
@@ -224,7 +226,8 @@ class _Builder:
             if i not in inst.connect:
                 raise self.fail(f"input {i!r} of template {t!r} is not connected",
                                 f"{key}.connect", i)
-        own = [*tpl.parameters, *tpl.states, *tpl.definitions, *sorted(_local_names(tpl))]
+        own = [*tpl.parameters, *tpl.states, *tpl.discrete, *tpl.definitions,
+               *sorted(_local_names(tpl))]
         names = {n: f"{name}.{n}" for n in own}
         return _Part(name, t, tpl, names)
 
@@ -242,7 +245,7 @@ class _Builder:
                 if var in tpl.inputs:
                     raise self.fail(f"connection to an input of {other!r}; connect to the "
                                     f"variable that input reads ({where})", key, target)
-                if var not in {*tpl.states, *tpl.parameters, *tpl.definitions}:
+                if var not in {*tpl.states, *tpl.discrete, *tpl.parameters, *tpl.definitions}:
                     raise self.fail(f"connection to a missing variable: template "
                                     f"{self.parts[other].template_name!r} of {other!r} has no "
                                     f"state, parameter or definition {var!r} ({where})",
@@ -291,7 +294,8 @@ class _Builder:
             raise self.fail(f"the product has {count} modes (at most {MAX_PRODUCT_MODES}); "
                             "use fewer or smaller components", "instances", str(count))
         data: dict[str, Any] = {"name": net.name, "description": net.description,
-                                "parameters": {}, "states": {}, "definitions": {}}
+                                "parameters": {}, "states": {}, "discrete": {},
+                                "definitions": {}}
         for part, inst in zip(parts, net.instances.values(), strict=True):
             for p, par in part.tpl.parameters.items():
                 data["parameters"][part.names[p]] = {
@@ -302,6 +306,9 @@ class _Builder:
                 if state.flow is not None:
                     entry["flow"] = part.q(state.flow)
                 data["states"][part.names[s]] = entry
+            for d, var in part.tpl.discrete.items():
+                data["discrete"][part.names[d]] = {**var.model_dump(),
+                                                   "value": inst.initial.get(d, var.value)}
             for d, text in part.tpl.definitions.items():
                 data["definitions"][part.names[d]] = part.q(text)
         mechanics = self.mechanics(parts)

@@ -364,7 +364,9 @@ def _is_finite_number(atom: sp.Basic) -> bool:
 class _Builder:
     """Turns an ``ast`` expression into sympy, refusing every other node."""
 
-    def __init__(self, text: str, symbols: Mapping[str, sp.Expr]) -> None:
+    def __init__(self, text: str, symbols: Mapping[str, sp.Expr],
+                 flags: frozenset[sp.Expr] = frozenset()) -> None:
+        self.flags = flags
         self.text = text
         self.symbols = symbols
         self.finite: set[sp.Basic] = set()  # subexpressions already known to be finite
@@ -546,6 +548,9 @@ class _Builder:
             for value in node.values:
                 out.extend(self.relations(value))
             return out
+        flag = self.flag(node)
+        if flag is not None:
+            return [flag]
         if not isinstance(node, ast.Compare):
             raise ExpressionError("an inequality such as 'x >= 0' is expected", self.token(node))
         operands = [node.left, *node.comparators]
@@ -564,6 +569,18 @@ class _Builder:
             out.append(Inequality(sp.expand(diff) if small and diff.is_polynomial() else diff,
                                   symbol in ("<", ">"), text))
         return out
+
+    def flag(self, node: ast.AST) -> Inequality | None:
+        """``armed`` or ``not armed`` for a boolean ``armed``: holds where its value
+        (0 or 1) is above, or below, one half."""
+        negated = isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.Not)
+        operand = node.operand if isinstance(node, ast.UnaryOp) and negated else node
+        name = dotted_name(operand)
+        value = self.symbols.get(name) if name is not None else None
+        if value is None or value not in self.flags:
+            return None
+        half = sp.Rational(1, 2)
+        return Inequality(half - value if negated else value - half, False, self.token(node))
 
 
 def parse_expression(text: str, symbols: Mapping[str, sp.Expr]) -> sp.Expr:
@@ -599,7 +616,8 @@ def parse_expression(text: str, symbols: Mapping[str, sp.Expr]) -> sp.Expr:
     return _Builder(text, symbols).expr(_parse_tree(text))
 
 
-def parse_relation(text: str, symbols: Mapping[str, sp.Expr]) -> list[Inequality]:
+def parse_relation(text: str, symbols: Mapping[str, sp.Expr], *,
+                   flags: frozenset[sp.Expr] = frozenset()) -> list[Inequality]:
     """Parse a conjunction of inequalities (``"x >= 0 and v < 0"``, ``"0 <= x <= 1"``).
 
     Parameters
@@ -608,6 +626,9 @@ def parse_relation(text: str, symbols: Mapping[str, sp.Expr]) -> list[Inequality
         The relation text.
     symbols : mapping of str to sympy.Expr
         Names it may use.
+    flags : frozenset of sympy.Expr
+        The symbols of boolean variables (values 0 and 1): such a name alone is a
+        relation (``armed``: its value is above one half), and so is ``not`` before it.
 
     Returns
     -------
@@ -623,8 +644,12 @@ def parse_relation(text: str, symbols: Mapping[str, sp.Expr]) -> list[Inequality
     Traceback (most recent call last):
     ...
     hybridlab.errors.ExpressionError: only inequalities (<, <=, >, >=) are allowed (token '==')
+    >>> armed = sp.Symbol("armed", real=True)
+    >>> [r.expr for r in parse_relation("x >= 1 and not armed", {"x": x, "armed": armed},
+    ...                                 flags=frozenset({armed}))]
+    [x - 1, 1/2 - armed]
     """
-    return _Builder(text, symbols).relations(_parse_tree(text))
+    return _Builder(text, symbols, flags).relations(_parse_tree(text))
 
 
 def as_expression(value: object) -> sp.Expr:

@@ -13,6 +13,7 @@ from typing import Annotated
 from pydantic import Field
 
 from hybridlab.model.schema import (
+    DiscreteField,
     Expression,
     Initial,
     Mechanics,
@@ -22,6 +23,7 @@ from hybridlab.model.schema import (
     Scenario,
     StateField,
     Transition,
+    Value,
     _Frozen,
 )
 
@@ -63,6 +65,7 @@ class Template(_Frozen):
     parameters: dict[str, ParameterField] = Field(default_factory=dict)
     inputs: list[str] = Field(default_factory=list)
     states: dict[str, StateField] = Field(default_factory=dict)
+    discrete: dict[str, DiscreteField] = Field(default_factory=dict)
     definitions: dict[str, Expression] = Field(default_factory=dict)
     mechanics: Mechanics | None = None
     modes: dict[str, Mode]
@@ -84,7 +87,7 @@ class Instance(_Frozen):
     template: Annotated[str, Field(min_length=1)]
     description: str = ""
     parameters: dict[str, Number] = Field(default_factory=dict)
-    initial: dict[str, Number] = Field(default_factory=dict)
+    initial: dict[str, Value] = Field(default_factory=dict)
     mode: str | None = None
     connect: dict[str, str] = Field(default_factory=dict)
     labels: dict[str, str] = Field(default_factory=dict)

@@ -9,7 +9,8 @@ last validation step, so an invalid model object cannot exist.
 from __future__ import annotations
 
 import numbers
-from typing import Annotated, Any
+from collections.abc import Mapping
+from typing import Annotated, Any, Literal
 
 from pydantic import (
     BaseModel,
@@ -27,6 +28,7 @@ from pydantic_core import CoreSchema, PydanticCustomError
 __all__ = [
     "Parameter",
     "State",
+    "Discrete",
     "Mode",
     "Schedule",
     "Transition",
@@ -100,6 +102,9 @@ def _no_bool_or_text(value: Any) -> Any:
 
 #: A number: int or float, never a boolean or a numeric string (as in the JSON schema).
 Number = Annotated[float, Strict(), BeforeValidator(_plain_real)]
+#: A value of a state or discrete variable as written: a number, or ``true``/``false``
+#: (a boolean variable's value; it reads as 1 or 0).
+Value = Number | Annotated[bool, Strict()]
 PositiveNumber = Annotated[float, Strict(), Field(gt=0), BeforeValidator(_plain_real)]
 #: An integer (a float with no fractional part is accepted, as JSON schema does).
 Integer = Annotated[int, BeforeValidator(_no_bool_or_text)]
@@ -108,6 +113,19 @@ Expression = Annotated[str, Field(min_length=1, max_length=10_000)]
 #: One relation or a list of them; always a list once validated.
 Relations = Annotated[list[Expression], BeforeValidator(_one_as_list),
                       _Shorthand(_EXPRESSION_SCHEMA)]
+
+
+def _booleans_as_text(value: Any) -> Any:
+    """``reset = { armed = true }``: a boolean written as a TOML value is ``"1"``/``"0"``."""
+    if isinstance(value, Mapping):
+        return {k: ("1" if v else "0") if isinstance(v, bool) else v for k, v in value.items()}
+    return value
+
+
+#: New values of a transition: expressions, or ``true``/``false`` for a boolean variable.
+Resets = Annotated[dict[str, Expression], BeforeValidator(_booleans_as_text),
+                   _Shorthand({"type": "object", "additionalProperties": {
+                       "anyOf": [_EXPRESSION_SCHEMA, {"type": "boolean"}]}})]
 
 
 class Parameter(_Frozen):
@@ -140,6 +158,58 @@ class State(_Frozen):
     unit: str = "1"
     flow: Expression | None = None
     description: str = ""
+
+
+#: The types of discrete variables.
+DiscreteType = Literal["bool", "int", "real"]
+
+
+def _discrete_shorthand(value: Any) -> Any:
+    """``count = 0`` / ``armed = false`` / ``level = 0.5`` for the full table, the type
+    taken from the TOML value (integer, boolean, float)."""
+    if isinstance(value, bool | int | float):
+        value = {"value": value}
+    if isinstance(value, Mapping) and "type" not in value and "value" in value:
+        given = value["value"]
+        kind = ("bool" if isinstance(given, bool) else "int" if isinstance(given, int)
+                else "real")
+        value = {**value, "type": kind}
+    return value
+
+
+def _type_optional(schema: dict[str, Any]) -> None:
+    """In files ``type`` may be left out (the value's type is taken)."""
+    schema["required"] = [key for key in schema.get("required", []) if key != "type"]
+
+
+class Discrete(_Frozen):
+    """A discrete variable: changed only by resets, never integrated.
+
+    ``type`` is ``"bool"`` (the values 0 and 1, written ``false``/``true``),
+    ``"int"`` or ``"real"``; a file may leave it out and let the value say
+    (``count = 0`` is an integer, ``armed = false`` a boolean, ``level = 0.5`` a
+    real). Whether the value fits the type is checked with the model.
+
+    Examples
+    --------
+    >>> Discrete(value=3, type="int").value
+    3
+    >>> Discrete.model_validate(False).type, Discrete.model_validate(0.5).type
+    ('bool', 'real')
+    """
+
+    model_config = ConfigDict(json_schema_extra=_type_optional)
+
+    value: Number | Annotated[int, Strict()] | Annotated[bool, Strict()]
+    type: DiscreteType = Field(description="bool, int or real; by default the type of the value "
+                                           "as written (true/false, 3, 0.5)")
+    unit: str = "1"
+    description: str = ""
+
+    @model_validator(mode="before")
+    @classmethod
+    def _shorthand(cls, value: Any) -> Any:
+        return _discrete_shorthand(value)
 
 
 class Mode(_Frozen):
@@ -233,7 +303,7 @@ class Transition(_Frozen):
     source: str | list[str]
     target: str
     guard: Relations = Field(default_factory=list)
-    reset: dict[str, Expression] = Field(default_factory=dict)
+    reset: Resets = Field(default_factory=dict)
     priority: Integer | None = None
     schedule: Schedule | None = None
     description: str = ""
@@ -272,7 +342,7 @@ class Scenario(_Frozen):
     t_end: Number
     t_start: Number = 0.0
     parameters: dict[str, Number] = Field(default_factory=dict)
-    initial: dict[str, Number] = Field(default_factory=dict)
+    initial: dict[str, Value] = Field(default_factory=dict)
     mode: str | None = None
     method: str | None = None
     rtol: PositiveNumber | None = None
@@ -285,6 +355,8 @@ class Scenario(_Frozen):
 ParameterField = Annotated[Parameter, _number_as("value"), _Shorthand({"type": "number"})]
 #: ``h = 10.0`` or a State table; always a State once validated.
 StateField = Annotated[State, _number_as("initial"), _Shorthand({"type": "number"})]
+#: ``count = 0``, ``armed = false`` or a Discrete table; always a Discrete once validated.
+DiscreteField = Annotated[Discrete, _Shorthand({"type": ["number", "boolean"]})]
 
 
 class Model(_Frozen):
@@ -311,6 +383,7 @@ class Model(_Frozen):
     description: str = ""
     parameters: dict[str, ParameterField] = Field(default_factory=dict)
     states: dict[str, StateField]
+    discrete: dict[str, DiscreteField] = Field(default_factory=dict)
     definitions: dict[str, Expression] = Field(default_factory=dict)
     mechanics: Mechanics | None = None
     modes: dict[str, Mode]
@@ -344,8 +417,14 @@ class Model(_Frozen):
 
     @property
     def state_names(self) -> tuple[str, ...]:
-        """State names in declaration order (the order of state vectors)."""
-        return tuple(self.states)
+        """The order of state vectors: the states in declaration order, then the
+        discrete variables (:attr:`discrete_names`)."""
+        return (*self.states, *self.discrete)
+
+    @property
+    def discrete_names(self) -> tuple[str, ...]:
+        """Discrete variable names in declaration order."""
+        return tuple(self.discrete)
 
     @property
     def parameter_names(self) -> tuple[str, ...]:

@@ -6,6 +6,10 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from hybridlab.errors import SimulationError
+from hybridlab.model.discrete import value_problem
 from hybridlab.model.schema import Model
 from hybridlab.simulation.compiled import use_compiled
 from hybridlab.simulation.engine import run
@@ -70,6 +74,8 @@ def simulate(
         uncertain values (naming the argument).
     hybridlab.ZenoError
         Under ``zeno="error"`` when events accumulate.
+    hybridlab.errors.SimulationError
+        When a jump gives a bool or int discrete variable a value it cannot take.
 
     Examples
     --------
@@ -92,7 +98,56 @@ def simulate(
     if use_compiled(opts.backend):
         from hybridlab.simulation.compiled.backend import run as run_compiled
 
-        return run_compiled(compiled, t0=t0, x0=x0, mode=mode, t_end=t_end, p=p, options=opts)
-    result = run(compiled, t0=t0, x0=x0, mode=mode, t_end=t_end, p=p, options=opts)
-    result.stats["backend"] = "reference"  # a fresh dict of this run
+        result = run_compiled(compiled, t0=t0, x0=x0, mode=mode, t_end=t_end, p=p,
+                              options=opts)
+    else:
+        result = run(compiled, t0=t0, x0=x0, mode=mode, t_end=t_end, p=p, options=opts)
+        result.stats["backend"] = "reference"  # a fresh dict of this run
+    check_jumps(compiled, result)
     return result
+
+
+def check_jumps(compiled: CompiledModel, result: SimulationResult) -> None:
+    """Raise :class:`SimulationError` naming the first jump of ``result`` that gave a bool
+    or int discrete variable a value it cannot take (a reset such as ``count = "n/2"``
+    whose value the model could not check when it loaded).
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> halve = hybridlab.loads_model('''
+    ... name = "halve"
+    ... states = { x = 0.0 }
+    ... discrete = { n = 5 }
+    ... modes.m.flow.x = "1"
+    ... initial.mode = "m"
+    ... [[transitions]]
+    ... name = "tick"
+    ... source = "m"
+    ... target = "m"
+    ... guard = "x >= 1"
+    ... reset = { x = "0", n = "n/2" }
+    ... ''')
+    >>> hybridlab.simulate(halve, t_end=2.0, backend="reference")
+    Traceback (most recent call last):
+    ...
+    hybridlab.errors.SimulationError: transition 'tick' at t = 1 set 'n': an int variable takes whole numbers (got 2.5)
+    """  # noqa: E501
+    kinds = compiled.symbolic.discrete
+    events = result.events
+    if not len(events) or not any(kind != "real" for kind in kinds.values()):
+        return
+    post = events.post
+    first: tuple[int, str, str] | None = None  # (event, variable, problem)
+    for i, name in enumerate(result.state_names):
+        if kinds.get(name, "real") == "real":
+            continue
+        for value in np.unique(post[:, i]):
+            problem = value_problem(kinds[name], float(value))
+            k = int(np.flatnonzero(post[:, i] == value)[0]) if problem else len(events)
+            if problem and (first is None or k < first[0]):
+                first = (k, name, problem)
+    if first is not None:
+        k, name, problem = first
+        raise SimulationError(f"transition {events.transition[k]!r} at t = "
+                              f"{events.t[k]:g} set {name!r}: {problem}")

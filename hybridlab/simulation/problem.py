@@ -449,6 +449,9 @@ def _initial(compiled: CompiledModel, sc: Scenario | None, initial: Any
                 raise _unknown("initial", "state", name, snames)
             lo, hi = interval(value, f"initial[{name!r}]")
             fixed[name] = 0.5 * (lo + hi)
+            if hi > lo and name in compiled.symbolic.discrete:
+                raise ProblemError(f"initial[{name!r}]: a discrete variable takes one value "
+                                   f"(got the interval {lo!r} to {hi!r}); run once per value")
             if hi > lo:
                 box[name] = (lo, hi)
         return fixed, box, None

@@ -10,6 +10,7 @@ import sympy as sp
 
 from hybridlab.errors import ModelError
 from hybridlab.model.checks import TIME, SymbolicModel, schedule_values
+from hybridlab.model.discrete import value_problem
 from hybridlab.model.schema import Model
 from hybridlab.symbolic.discontinuities import Switch, extract_switches
 from hybridlab.symbolic.functions import LazyMatrixFunction, MatrixFunction, VectorFunction
@@ -228,8 +229,33 @@ class CompiledModel:
         return self._vector(values, overrides, "parameter", self.parameter_names)
 
     def state_vector(self, overrides: Mapping[str, float] | None = None) -> np.ndarray:
-        """Initial state values with ``overrides`` applied, in declaration order."""
-        values = {name: s.initial for name, s in self.model.states.items()}
+        """Initial state values with ``overrides`` applied, in declaration order (the
+        discrete variables last).
+
+        Examples
+        --------
+        >>> from hybridlab.model import loads_model
+        >>> m = compile_model(loads_model('''
+        ... name = "count"
+        ... states = { x = 0.0 }
+        ... discrete = { n = 2, on = true }
+        ... modes.m.flow.x = "n"
+        ... initial.mode = "m"
+        ... '''))
+        >>> m.state_vector(), m.state_vector({"n": 5, "on": False})
+        (array([0., 2., 1.]), array([0., 5., 0.]))
+        >>> m.state_vector({"n": 1.5})
+        Traceback (most recent call last):
+        ...
+        ValueError: state 'n': an int variable takes whole numbers (got 1.5)
+        """
+        values: dict[str, float] = {name: s.initial for name, s in self.model.states.items()}
+        values.update({name: float(d.value) for name, d in self.model.discrete.items()})
+        for given, value in (overrides or {}).items():
+            name = self.symbolic.qualified(given)
+            kind = self.symbolic.discrete.get(name)
+            if kind is not None and (problem := value_problem(kind, value)) is not None:
+                raise ValueError(f"state {name!r}: {problem}")
         return self._vector(values, overrides, "state", self.state_names)
 
     def _vector(self, values: dict[str, float], overrides: Mapping[str, float] | None,
