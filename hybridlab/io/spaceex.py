@@ -42,7 +42,7 @@ from hybridlab.model.loader import model_from_dict
 from hybridlab.model.schema import Model
 
 __all__ = ["SpaceExError", "SpaceExOptions", "ConstraintSet", "SpaceExProblem",
-           "load_spaceex", "loads_spaceex"]
+           "SpaceExImport", "load_spaceex", "loads_spaceex", "import_spaceex", "read_spaceex"]
 
 _MAX_MODES = 2000
 
@@ -507,6 +507,38 @@ def _default_system(components: dict[str, BaseComponent | NetworkComponent]) -> 
     return roots[-1] if roots else list(components)[-1]
 
 
+@dataclass(frozen=True)
+class SpaceExImport:
+    """What an import built on the way to its product, for writing it as components.
+
+    Attributes
+    ----------
+    problem : SpaceExProblem
+        What :func:`loads_spaceex` returns.
+    system : str
+        The component imported.
+    automata : list
+        One parsed automaton per base instance, in the network's order, its expressions
+        in the product's (global hybridlab) names.
+    fixed : dict of (str, str) to str
+        (instance path, formal) -> the product parameter a number of a ``<map>`` became.
+    values : dict of str to float
+        Every product parameter's value (constants, numbers of maps, inputs' midpoints).
+    starts : list of tuple of str
+        The initial location ids, one tuple per initial product mode, the first the model's.
+    modes : dict of tuple of str to str
+        Location ids per automaton -> product mode name.
+    """
+
+    problem: SpaceExProblem
+    system: str
+    automata: list[_Automaton]
+    fixed: Mapping[tuple[str, str], str]
+    values: Mapping[str, float]
+    starts: list[tuple[str, ...]]
+    modes: Mapping[tuple[str, ...], str]
+
+
 def loads_spaceex(xml: str | bytes, cfg: str | None = None, *, source: str = "<string>",
                   cfg_source: str = "<cfg>", system: str | None = None) -> SpaceExProblem:
     """Import SpaceEx model text (and ``.cfg`` text); see :func:`load_spaceex`.
@@ -520,6 +552,21 @@ def loads_spaceex(xml: str | bytes, cfg: str | None = None, *, source: str = "<s
     >>> p = loads_spaceex(xml, 'initially = "t == 0"\\ntime-horizon = 2')
     >>> p.model.state_names, p.renamed, p.t_end
     (('t_',), {'t': 't_'}, 2.0)
+    """
+    return import_spaceex(xml, cfg, source=source, cfg_source=cfg_source,
+                          system=system).problem
+
+
+def import_spaceex(xml: str | bytes, cfg: str | None = None, *, source: str = "<string>",
+                   cfg_source: str = "<cfg>", system: str | None = None) -> SpaceExImport:
+    """:func:`loads_spaceex` with what it built on the way (see :class:`SpaceExImport`).
+
+    Examples
+    --------
+    >>> import pathlib
+    >>> imp = import_spaceex(pathlib.Path("models/spaceex/bouncing_ball.xml").read_bytes())
+    >>> imp.system, [a.inst.name for a in imp.automata], imp.fixed[("ball_1", "g")]
+    ('system', ['ball_1'], 'g')
     """
     data = xml.encode("utf-8") if isinstance(xml, str) else xml
     components = read_components(data, source)
@@ -639,10 +686,11 @@ def loads_spaceex(xml: str | bytes, cfg: str | None = None, *, source: str = "<s
     if t_end is not None:
         data_model["scenarios"] = {"default": {"t_end": t_end}}
     model = model_from_dict(data_model, source=source)
-    return SpaceExProblem(model, initial, tuple(modes[s] for s in starts),
-                          {c: v for c, v in params.items()}, inputs, forbidden, t_end,
-                          options, (source,) if cfg is None else (source, cfg_source),
-                          renamed)
+    problem = SpaceExProblem(model, initial, tuple(modes[s] for s in starts),
+                             {c: v for c, v in params.items()}, inputs, forbidden, t_end,
+                             options, (source,) if cfg is None else (source, cfg_source),
+                             renamed)
+    return SpaceExImport(problem, system, autos, fixed, point, starts, modes)
 
 
 def _constant_bound(a: Atom, ctx: _Ctx, lo: dict[str, float], hi: dict[str, float]) -> None:
@@ -880,7 +928,26 @@ def load_spaceex(path: str | Path, cfg: str | Path | None = None, *,
     >>> round(float(r.final.state["x"]), 6)  # 10.1 - t**2/2
     8.1
     """
-    path = Path(path)
+    data, cfg_text = read_spaceex(path, cfg)
+    return loads_spaceex(data, cfg_text, source=str(path),
+                         cfg_source=str(cfg) if cfg is not None else "<cfg>", system=system)
+
+
+def read_spaceex(path: str | Path, cfg: str | Path | None = None) -> tuple[bytes, str | None]:
+    """The bytes of a SpaceEx model file and the text of its ``.cfg`` (``None`` without one).
+
+    Raises
+    ------
+    SpaceExError
+        Naming the file that cannot be read.
+
+    Examples
+    --------
+    >>> read_spaceex("models/spaceex/ball.xml")
+    Traceback (most recent call last):
+    ...
+    hybridlab.io._sxxml.SpaceExError: models/spaceex/ball.xml: cannot read file: No such file ...
+    """
     try:
         data = read_bounded(path)
     except OSError as exc:
@@ -893,5 +960,4 @@ def load_spaceex(path: str | Path, cfg: str | Path | None = None, *,
             raise SpaceExError(f"cannot read file: {exc.strerror}", source=str(cfg)) from None
         except UnicodeDecodeError:
             raise SpaceExError("file is not UTF-8 text", source=str(cfg)) from None
-    return loads_spaceex(data, cfg_text, source=str(path),
-                         cfg_source=str(cfg) if cfg is not None else "<cfg>", system=system)
+    return data, cfg_text
