@@ -227,6 +227,39 @@ def test_an_affine_chain_contains_every_sampled_trajectory_over_many_steps(case)
                 assert ends[int(np.argmax(on_end))].contains_points(x, tol=scale)
 
 
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(stiff_steps())
+def test_steps_looked_ahead_are_the_chain_s_steps_and_contain_every_trajectory(case):
+    A, c, r, center, width, _, seed = case
+    rng = np.random.default_rng(seed)
+    n, steps = A.shape[0], 6
+    prop = Propagator.build(A, c, r, 10)
+    stepped = AffineChain(prop, Zonotope(center, np.diag(width)), None, order=2)
+    ends, pipes = zip(*(stepped.advance() for _ in range(steps - 1)), strict=True)
+    looked = AffineChain(prop, Zonotope(center, np.diag(width)), None, order=2)
+    ahead = looked.ahead(steps - 1)
+    assert ahead is not None and len(ahead) <= steps - 1
+    sets = [ahead.set(j) for j in range(len(ahead))]
+    directions = rng.normal(size=(3, n))
+    bounds = ahead.supports(directions)
+    for j, (H, G) in enumerate(zip(sets, pipes, strict=False)):  # the same, to the last bits
+        np.testing.assert_allclose(H.bounds(), G.bounds(), rtol=1e-12, atol=1e-300)
+        exact = H.supports(directions)
+        assert np.all(bounds[j] >= exact - 1e-12 * (1 + np.abs(exact)))
+    end = looked.skip(ahead, len(ahead))
+    np.testing.assert_allclose(end.bounds(), ends[len(ahead) - 1].bounds(), rtol=1e-12,
+                               atol=1e-300)
+    corners = center + width * rng.choice([-1.0, 1.0], (4, n))
+    runs = _trajectories(A, c, r, corners, None, rng, n_times=4, steps=steps)
+    for times, states in runs:
+        scale = 1e-9 * (1.0 + np.max(np.abs(states)))
+        for t, x in zip(times, states, strict=True):
+            k = int(t / r) - 1  # set j of the look-ahead covers [(j + 1) r, (j + 2) r]
+            if 0 <= k < len(sets):
+                assert sets[k].contains_points(x, tol=scale) or (
+                    k and sets[k - 1].contains_points(x, tol=scale))
+
+
 STIFF = """
 name = "stiff2"
 [parameters]

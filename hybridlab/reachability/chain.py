@@ -35,13 +35,15 @@ from hybridlab.reachability.linear import (
     Propagator,
     affine_step,
     assemble,
+    assembly_box,
+    box_generators,
     homogeneous,
     interval_map,
 )
-from hybridlab.reachability.rounding import product_error, up
+from hybridlab.reachability.rounding import U, product_error, up
 from hybridlab.reachability.sets import Zonotope
 
-__all__ = ["AffineChain", "InputSum"]
+__all__ = ["AffineChain", "Ahead", "InputSum"]
 
 _WORN = 1e-6
 """Relative radius of the enclosure of ``Phi^k`` beyond which it is enclosed afresh (and,
@@ -132,6 +134,61 @@ class AffineChain:
         X = self._plus_sum(*interval_map(self.M, self.M_rad, self._X0h))
         return X, H
 
+    def ahead(self, steps: int) -> Ahead | None:
+        """The flowpipe sets ``H_k ... H_{k+steps-1}`` of the next steps, as arrays, without
+        taking them (fewer where ``Phi^k`` would need enclosing afresh; ``None`` for a mode
+        with inputs, whose sum is built step by step). :meth:`skip` then takes some.
+
+        Each set is exactly what :meth:`advance` would return for that step.
+
+        Examples
+        --------
+        >>> prop = Propagator.build(np.array([[-1.0]]), np.array([0.0]), 0.1, 10)
+        >>> chain = AffineChain(prop, Zonotope([1.0], [[0.1]]), None, 20)
+        >>> twin = AffineChain(prop, Zonotope([1.0], [[0.1]]), None, 20)
+        >>> ahead = chain.ahead(3)
+        >>> X, H = twin.advance()
+        >>> bool(np.array_equal(ahead.set(0).generators, H.generators))
+        True
+        >>> X2 = chain.skip(ahead, 1)
+        >>> bool(np.array_equal(X2.center, X.center))
+        True
+        """
+        if self.V is not None or steps < 1:
+            return None
+        phi, phi_rad, abs_phi = self.prop.phi, self.prop.phi_rad, self._abs_phi
+        M = np.empty((steps + 1,) + self.M.shape)
+        M_rad = np.empty_like(M)
+        M[0], M_rad[0] = self.M, self.M_rad
+        usable = steps
+        for j in range(1, steps + 1):  # the recurrence of advance
+            abs_M = np.abs(M[j - 1])
+            M_rad[j] = up(abs_phi @ M_rad[j - 1] + phi_rad @ (abs_M + M_rad[j - 1])
+                          + product_error(abs_phi, abs_M))
+            M[j] = phi @ M[j - 1]
+            if bool(M_rad[j].max() > _WORN * (1.0 + float(np.abs(M[j]).max()))):
+                usable = j - 1  # Phi^j must be enclosed afresh: advance does that
+                break
+        if usable < 1:
+            return None
+        n = self.n
+        ch, Gh, absP = self._H0h
+        Ms, Mr = M[:usable], M_rad[:usable]
+        center = Ms @ ch
+        gens = Ms @ Gh
+        err = up(Mr @ absP + product_error(np.abs(Ms), absP))
+        return Ahead(center[:, :n], gens[:, :n], assembly_box(center[:, :n], gens[:, :n],
+                                                                err[:, :n]),
+                     M[:usable + 1], M_rad[:usable + 1])
+
+    def skip(self, ahead: Ahead, taken: int) -> Zonotope:
+        """Take the first ``taken`` steps of ``ahead``; returns the end set ``X_{k+taken}``."""
+        if not 1 <= taken <= len(ahead):
+            raise ValueError(f"taken must be in [1, {len(ahead)}] (got {taken})")
+        self.M, self.M_rad = ahead.M[taken].copy(), ahead.M_rad[taken].copy()
+        self.steps += taken
+        return self._plus_sum(*interval_map(self.M, self.M_rad, self._X0h))
+
     def _plus_sum(self, c: np.ndarray, G: np.ndarray, err: np.ndarray) -> Zonotope:
         """The mapped set (homogeneous ``c``, ``G`` and ``err``) plus the input sum."""
         n = self.n
@@ -196,3 +253,42 @@ class InputSum:
         """The sum as a zonotope (its generators and the box)."""
         gens, box = self.parts()
         return assemble(np.zeros(gens.shape[0]), gens, box)
+
+
+class Ahead:
+    """The flowpipe sets of a chain's next steps, as stacked arrays (see
+    :meth:`AffineChain.ahead`): set ``j`` is ``centers[j] + generators[j] [-1, 1]^m``
+    plus the box of radius ``boxes[j]``.
+
+    Examples
+    --------
+    >>> prop = Propagator.build(np.array([[-1.0]]), np.array([0.0]), 0.1, 10)
+    >>> ahead = AffineChain(prop, Zonotope([1.0], [[0.1]]), None, 20).ahead(4)
+    >>> len(ahead), ahead.centers.shape, ahead.supports(np.array([[1.0]])).shape
+    (4, (4, 1), (4, 1))
+    """
+
+    def __init__(self, centers: np.ndarray, generators: np.ndarray, boxes: np.ndarray,
+                 M: np.ndarray, M_rad: np.ndarray) -> None:
+        self.centers, self.generators, self.boxes = centers, generators, boxes
+        self.M, self.M_rad = M, M_rad  # Phi^k ... Phi^(k + len), for skip
+
+    def __len__(self) -> int:
+        return self.centers.shape[0]
+
+    def set(self, j: int) -> Zonotope:
+        """Set ``j`` as the zonotope :meth:`AffineChain.advance` would return."""
+        return Zonotope(self.centers[j], np.hstack([self.generators[j],
+                                                    box_generators(self.boxes[j])]))
+
+    def supports(self, directions: np.ndarray) -> np.ndarray:
+        """Upper bounds of ``d . x`` over every set (shape ``(len, k)``), rounded up."""
+        D = np.asarray(directions, dtype=float)
+        abs_D = np.abs(D)
+        value = self.centers @ D.T
+        dG = np.abs(np.einsum("kd,jdm->jkm", D, self.generators))
+        spread = dG.sum(axis=-1) + self.boxes @ abs_D.T
+        # the products' rounding (as Zonotope.supports bounds it) and the sums'
+        size = np.abs(self.centers) + np.abs(self.generators).sum(axis=-1) + self.boxes
+        err = product_error(abs_D, size.T).T + 2 * U * (np.abs(value) + spread)
+        return up(value + spread + up(err))

@@ -51,6 +51,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from hybridlab.reachability.chain import AffineChain
 from hybridlab.reachability.clusters import groups, hull, oriented_hull
 from hybridlab.reachability.linear import StepError
 from hybridlab.reachability.nonlinear import FlowStepper, RemainderError
@@ -252,12 +253,16 @@ class _Analysis:
             self.steppers[mode] = FlowStepper(self.system, mode, self.options)
         return self.steppers[mode]
 
-    def record(self, item: Item, H: Zonotope, t0: float, t1: float) -> None:
+    def record(self, item: Item, H: Zonotope, t0: float, t1: float,
+               inside: bool = False) -> None:
+        """Keep ``H``, the set over ``[t0, t1]`` (``inside``: known to lie within the mode's
+        invariant, so its hull needs no cut)."""
         full = H
         box = H.bounds()
         rows = self.system.modes[item.mode].invariants
-        inside = rows.range(H)[:, 0] >= 0 if rows.size else np.zeros(0, dtype=bool)
-        for i in np.flatnonzero(rows.linear & ~inside):  # exact hull of H within the invariant
+        within = (rows.range(H)[:, 0] >= 0 if rows.size and not inside
+                  else np.ones(rows.size, dtype=bool))
+        for i in np.flatnonzero(rows.linear & ~within):  # exact hull of H within the invariant
             cut = H.bounds_in_slab(rows.a[i], -rows.b[i], np.inf)
             if cut is not None:
                 box = np.column_stack([np.maximum(box[:, 0], cut[:, 0]),
@@ -330,8 +335,20 @@ class _Analysis:
         rel = 0.0
         now = item.t_lo  # exact current time (only meaningful when exact_time)
         done_at = item.sched_done
+        # quiet stretches of an affine chain are taken many steps at a time (_quiet_steps)
+        quiet = _QuietRun(not scheduled and bool(np.all(mode.invariants.linear)) and all(
+            bool(np.all(system.guards[tr.index].linear)) for tr in guarded))
         while True:
             start_lo = item.t_lo + rel if not exact_time else now
+            if quiet.due() and not any(clusters.values()):
+                chain = stepper.chain_for(P, self.step)
+                if chain is not None:
+                    taken, P, rel, now = self._quiet_steps(item, stepper, chain, P, rel, now,
+                                                           exact_time, guarded, leaving,
+                                                           quiet.size)
+                    quiet.ran(taken)
+                    if taken:
+                        continue
             if scheduled:
                 instant, due = self._next_scheduled(scheduled, now, done_at)
                 if instant == now and due:
@@ -400,6 +417,55 @@ class _Analysis:
         for tr in guarded:
             if clusters[tr.index]:
                 self._jump(item, tr, clusters[tr.index])
+
+    def _quiet_steps(self, item: Item, stepper: FlowStepper, chain: AffineChain, P: Zonotope,
+                     rel: float, now: float, exact_time: bool, guarded,
+                     leaving: dict[int, set[int]], size: int
+                     ) -> tuple[int, Zonotope, float, float]:
+        """Take the next steps of ``chain`` while they are quiet, up to ``size`` of them.
+
+        A step is quiet when its set lies inside the mode's invariant (no cut) and meets
+        no guard (no jump): then :meth:`flow` would only record it. The sets, their
+        invariant and guard bounds come from one stacked computation
+        (:meth:`AffineChain.ahead`); each set is the one the step would give, recorded
+        as it would record it. The bounds here are support functions rounded up, with a
+        relative slack ten times the one of ``Rows.range``, so every step that the
+        one-step path would treat as meeting a guard or the invariant's boundary ends
+        the run here first. Returns ``(steps taken, end set, rel, now)``.
+        """
+        r = self.step
+        start = item.t_lo + rel if not exact_time else now
+        full = int((self.t_end - start) / r) - 1  # whole steps, the last one left to flow
+        ahead = chain.ahead(min(size, full)) if full >= 1 else None
+        if ahead is None:
+            return 0, P, rel, now
+        system = self.system
+        quiet = np.ones(len(ahead), dtype=bool)
+        inv = system.modes[item.mode].invariants
+        if inv.size:  # min over the set of a z + b must stay >= 0
+            support = ahead.supports(-inv.a)
+            quiet &= np.all(inv.b - support >= _QUIET_SLACK * (np.abs(support)
+                                                              + np.abs(inv.b)), axis=1)
+        for tr in guarded:  # some row's max of a z + b below 0: the guard is not met
+            rows = system.guards[tr.index]
+            if rows.size == 0:
+                quiet[:] = False
+                break
+            support = ahead.supports(rows.a)
+            quiet &= np.any(support + rows.b < -_QUIET_SLACK * (np.abs(support)
+                                                                + np.abs(rows.b)), axis=1)
+        taken = len(ahead) if bool(quiet.all()) else int(np.argmin(quiet))
+        for j in range(taken):
+            t0 = item.t_lo + rel if not exact_time else now
+            t1 = (now + r) if exact_time else item.t_hi + rel + r
+            self.record(item, ahead.set(j), t0, t1, inside=True)
+            rel += r
+            now = now + r
+        if taken:
+            for tr in guarded:
+                leaving[tr.index] = set()  # not met on the way: no longer "leaving"
+            P = stepper.skip(chain, ahead, taken)
+        return taken, P, rel, now
 
     def _entry_outside_invariant(self, item: Item, guarded) -> None:
         """States entering outside the mode's invariant cannot flow: at the entry instant they
@@ -593,6 +659,54 @@ class _Analysis:
 
 class _Budget(Exception):  # noqa: N818 - a signal, not an error
     pass
+
+
+_QUIET_SLACK = 1e-12
+"""Relative slack of the quiet-step tests (ten times that of ``Rows.range``)."""
+_QUIET_FIRST = 8
+"""Steps looked ahead at first; the look-ahead doubles while every step is quiet ..."""
+_QUIET_MOST = 256
+"""... up to this many."""
+_QUIET_PAUSE = 8
+"""Steps taken one at a time after a look-ahead found its first step not quiet."""
+
+
+class _QuietRun:
+    """When :meth:`_Analysis.flow` looks ahead for quiet steps, and how far.
+
+    Examples
+    --------
+    >>> run = _QuietRun(True)
+    >>> run.due(), run.size
+    (True, 8)
+    >>> run.ran(8); run.size
+    16
+    >>> run.ran(0); [run.due() for _ in range(9)].count(True)
+    1
+    """
+
+    def __init__(self, possible: bool) -> None:
+        self.possible = possible
+        self.size = _QUIET_FIRST
+        self.pause = 0
+
+    def due(self) -> bool:
+        """Whether to look ahead before this step (counts the paused steps down)."""
+        if not self.possible:
+            return False
+        if self.pause:
+            self.pause -= 1
+            return False
+        return True
+
+    def ran(self, taken: int) -> None:
+        """A look-ahead took ``taken`` steps."""
+        if taken == self.size:
+            self.size = min(2 * self.size, _QUIET_MOST)
+        elif taken == 0:
+            self.size, self.pause = _QUIET_FIRST, _QUIET_PAUSE
+        else:
+            self.size = max(_QUIET_FIRST, taken)
 
 
 class _Unproved(_Budget):

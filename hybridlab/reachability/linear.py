@@ -69,8 +69,14 @@ def _abs_z(Z: Zonotope) -> np.ndarray:
     return up(np.abs(Z.center) + np.abs(Z.generators).sum(axis=1), Z.generators.shape[1] + 1)
 
 
-def _box(radius: np.ndarray) -> np.ndarray:
-    """Generators of the box ``[-radius, radius]`` (zero columns dropped)."""
+def box_generators(radius: np.ndarray) -> np.ndarray:
+    """Generators of the box ``[-radius, radius]`` (zero columns dropped).
+
+    Examples
+    --------
+    >>> box_generators(np.array([0.5, 0.0, 2.0])).tolist()
+    [[0.5, 0.0], [0.0, 0.0], [0.0, 2.0]]
+    """
     idx = np.flatnonzero(radius > 0)
     G = np.zeros((radius.size, idx.size))
     G[idx, np.arange(idx.size)] = radius[idx]
@@ -421,9 +427,24 @@ def assemble(center: np.ndarray, gens: np.ndarray, box: np.ndarray, bloat: float
     >>> Z.generators.shape, Z.bounds().round(9).tolist()
     ((1, 2), [[0.49, 1.51]])
     """
-    size = up(np.abs(center) + np.abs(gens).sum(axis=1) + box)
-    extra = up(box + (4 * U + bloat) * size)
-    return Zonotope(center, np.hstack([gens, _box(extra)]))
+    extra = assembly_box(center, gens, box, bloat)
+    return Zonotope(center, np.hstack([gens, box_generators(extra)]))
+
+
+def assembly_box(center: np.ndarray, gens: np.ndarray, box: np.ndarray, bloat: float = 0.0
+                 ) -> np.ndarray:
+    """The radius of the box :func:`assemble` adds: ``box`` and the assembly's rounding.
+
+    Works on stacks too: ``center`` and ``box`` of shape ``(..., n)``, ``gens`` of shape
+    ``(..., n, m)``.
+
+    Examples
+    --------
+    >>> assembly_box(np.array([1.0]), np.array([[0.5]]), np.array([0.01])).round(9).tolist()
+    [0.01]
+    """
+    size = up(np.abs(center) + np.abs(gens).sum(axis=-1) + box)
+    return up(box + (4 * U + bloat) * size)
 
 
 def affine_step(P: Zonotope, prop: Propagator, W: Zonotope | None = None,

@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from hybridlab.reachability.chain import AffineChain
+from hybridlab.reachability.chain import AffineChain, Ahead
 from hybridlab.reachability.linear import Propagator, StepError, affine_step
 from hybridlab.reachability.modal import eigenbasis
 from hybridlab.reachability.options import ReachOptions
@@ -127,6 +127,19 @@ class FlowStepper:
             prop = Propagator.build(A, c, r, self.options.taylor_terms)
             self._props[key] = prop
         return prop
+
+    def chain_for(self, P: Zonotope, r: float) -> AffineChain | None:
+        """The affine chain that continues from ``P`` in steps of ``r``, if there is one."""
+        chain = self._chain
+        if chain is not None and P is self._chain_end and chain.prop.r == r and not chain.worn:
+            return chain
+        return None
+
+    def skip(self, chain: AffineChain, ahead: Ahead, taken: int) -> Zonotope:
+        """Take ``taken`` steps of ``chain`` looked ahead (:meth:`AffineChain.ahead`);
+        returns the end set, from which :meth:`step` continues the chain."""
+        self._chain_end = chain.skip(ahead, taken)
+        return self._chain_end
 
     def step(self, P: Zonotope, r: float) -> tuple[Zonotope, Zonotope]:
         """``(P_next, H)`` from ``P`` over a step of length ``r``.
