@@ -51,13 +51,13 @@ def resolve_names(model: Model, values: Mapping[str, Any], argument: str
     for name, value in values.items():
         if name in model.parameters:
             params[name] = _number(value, f"{argument} {name!r}")
-        elif name in model.states:
+        elif name in model.state_names:  # a discrete variable's start too
             initial[name] = _number(value, f"{argument} {name!r}")
         else:
             raise SweepError(
                 f"{argument}: {name!r} is neither a parameter nor a state of model "
                 f"{model.name!r} (parameters: {', '.join(model.parameters) or '-'}; "
-                f"states: {', '.join(model.states)})")
+                f"states: {', '.join(model.state_names)})")
     return params, initial
 
 
@@ -193,7 +193,7 @@ def normalise_run(model: Model, run: Mapping[str, Any], k: int) -> dict[str, Any
         if key in ("params", "initial"):
             if not isinstance(value, Mapping):
                 raise SweepError(f"runs[{k}].{key}: expected a mapping of name to value")
-            known = model.parameters if key == "params" else model.states
+            known = model.parameters if key == "params" else model.state_names
             kind = "parameter" if key == "params" else "state"
             for name in value:
                 if name not in known:

@@ -8,6 +8,12 @@ bounds (``inputs=``), then the sign symbols ``sigma_k`` of the mode's
 discontinuities (see :mod:`hybridlab.symbolic.discontinuities`). Every other
 parameter is substituted by its value.
 
+Discrete variables are model states here, with the flow 0 in every mode: dimensions of the
+sets that stay one point while their value is known (their initial value is one number,
+and a reset to a constant or to known values keeps it one) and take the width of what a
+reset assigns from continuous states (``level = x``). They are not split out of the sets
+by value; a boolean guard ``armed`` is the row ``armed - 1/2 >= 0``.
+
 Everything here is derived once per :func:`reach` call from the sympy form;
 model text is never evaluated.
 """
