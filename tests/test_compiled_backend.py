@@ -208,6 +208,12 @@ def test_max_events_stops_like_the_reference(compiled_models):
     assert fast.message.split(" by t")[0] == ref.message.split(" by t")[0] == "5 events logged"
     assert fast.events[-1].t == pytest.approx(ref.events[-1].t, abs=1e-9)
     assert fast.final.j == ref.final.j and fast.final.mode == ref.final.mode
+    for result in (fast, ref):  # the run ends after its last event: in its target and post
+        last = result.events[-1]
+        assert (result.final.t, result.final.j, result.final.mode) == (last.t, last.j,
+                                                                        last.target)
+        assert result.final.state == last.post
+        np.testing.assert_array_equal(result(result.final.t), list(last.post.values()))
 
 
 def test_zeno_error_policy_raises_on_the_compiled_backend(compiled_models):

@@ -203,6 +203,8 @@ class _Run:
         self.events.append(Event(float(t), self.j, transition, source, target,
                                  self.state_map(pre), self.state_map(post), kind, grazing))
         if len(self.events) >= self.o.max_events:
+            # the run ends after the event it logged: in its target, in its post state
+            self.last = (t, post.copy(), self.c.modes[target])
             raise _Stop(Status.MAX_EVENTS, f"{len(self.events)} events logged by t = {t!r}")
 
     # ----- sign bookkeeping of discontinuous flows -----------------------------------------

@@ -713,6 +713,13 @@ def _result(compiled: CompiledModel, prep: Prepared, o: SimulationOptions, code:
             p: np.ndarray, t_end: float) -> SimulationResult:
     names = compiled.state_names
     modes = prep.mode_names
+    if code == MAX_EVENTS and len(EV):
+        # the run ends after the event it logged: in its target, in its post state (the
+        # kernel stops before it moves there)
+        columns = partial(_event_columns, EV, len(names), prep)
+        last = EventTable.deferred(names, len(EV), columns)[-1]
+        last_t, last_m, j = last.t, modes.index(last.target), last.j
+        last_x = np.array([last.post[name] for name in names])
     t, x, mode = float(last_t), np.asarray(last_x), modes[int(last_m)]
     events, segments = _records(compiled, prep, o, EV, PT, ST, SG, (t, x, int(last_m), int(j)))
     zeno_time = None
