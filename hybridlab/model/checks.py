@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import sympy as sp
 
 from hybridlab.errors import ExpressionError, ModelError
-from hybridlab.model.discrete import value_problem
+from hybridlab.model.discrete import value_problem, written
 from hybridlab.model.expressions import (
     MAX_TREE_NODES,
     Inequality,
@@ -606,7 +606,7 @@ def build_symbolic(model: Model) -> SymbolicModel:
                 raise _fail("unknown state", f"{key}.initial.{s}", s)
             problem = value_problem(kinds.get(name, "real"), value)
             if problem is not None:
-                raise _fail(problem, f"{key}.initial.{s}", _written(value))
+                raise _fail(problem, f"{key}.initial.{s}", written(value))
         if scenario.mode is not None and len(match_modes(scenario.mode, list(model.modes))) != 1:
             raise _fail("scenario mode is not a mode", f"{key}.mode", scenario.mode)
         if scenario.t_end <= scenario.t_start:
@@ -628,17 +628,12 @@ def build_symbolic(model: Model) -> SymbolicModel:
     )
 
 
-def _written(value: object) -> str:
-    """A value as a model file writes it (``true``, ``2.5``)."""
-    return str(value).lower() if isinstance(value, bool) else repr(value)
-
-
 def _discrete_kinds(model: Model) -> dict[str, str]:
     """Each discrete variable's type, its value checked against it."""
     for name, var in model.discrete.items():
         problem = value_problem(var.type, var.value)
         if problem is not None:
-            raise _fail(problem, f"discrete.{name}.value", _written(var.value))
+            raise _fail(problem, f"discrete.{name}.value", written(var.value))
     return {name: var.type for name, var in model.discrete.items()}
 
 

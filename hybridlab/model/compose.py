@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from hybridlab.errors import ExpressionError, ModelError
+from hybridlab.model.discrete import value_problem, written
 from hybridlab.model.expressions import check_name, names_in, rename
 from hybridlab.model.names import SEPARATOR, match_modes, mode_target
 from hybridlab.model.network import Instance, Network, SyncTransition, Template
@@ -220,6 +221,11 @@ class _Builder:
             for given in getattr(inst, section):
                 if given not in allowed:
                     raise self.fail(f"template {t!r} {what}", f"{key}.{section}.{given}", given)
+        for given, value in inst.initial.items():
+            kind = tpl.discrete[given].type if given in tpl.discrete else "real"
+            if (problem := value_problem(kind, value)) is not None:
+                raise self.fail(f"{problem} (instance {name!r} of template {t!r})",
+                                f"{key}.initial.{given}", written(value))
         if inst.mode is not None and inst.mode not in tpl.modes:
             raise self.fail(f"template {t!r} has no mode of this name", f"{key}.mode", inst.mode)
         for i in tpl.inputs:

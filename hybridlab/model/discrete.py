@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["value_problem"]
+__all__ = ["value_problem", "written"]
 
 
 def value_problem(kind: str, value: float) -> str | None:
@@ -37,3 +37,14 @@ def value_problem(kind: str, value: float) -> str | None:
     if kind == "bool" and number not in (0.0, 1.0):
         return f"a bool variable takes 0 or 1, false or true (got {value!r})"
     return None
+
+
+def written(value: object) -> str:
+    """``value`` as a model file writes it, for the token of an error (``true``, ``2.5``).
+
+    Examples
+    --------
+    >>> written(True), written(2.5)
+    ('true', '2.5')
+    """
+    return str(value).lower() if isinstance(value, bool) else repr(value)

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from hybridlab.errors import HybridlabError
+from hybridlab.model.discrete import value_problem
 from hybridlab.model.loader import load_model
 from hybridlab.model.names import match_modes
 from hybridlab.model.schema import Model, Scenario
@@ -447,6 +448,11 @@ def _initial(compiled: CompiledModel, sc: Scenario | None, initial: Any
         for name, value in _qualified(compiled, initial).items():
             if name not in snames:
                 raise _unknown("initial", "state", name, snames)
+            if isinstance(value, bool):  # the value of a bool variable, read as 0 or 1
+                problem = value_problem(compiled.symbolic.discrete.get(name, "real"), value)
+                if problem is not None:
+                    raise ProblemError(f"initial[{name!r}]: {problem}")
+                value = float(value)
             lo, hi = interval(value, f"initial[{name!r}]")
             fixed[name] = 0.5 * (lo + hi)
             if hi > lo and name in compiled.symbolic.discrete:
