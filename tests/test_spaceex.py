@@ -1,8 +1,10 @@
-"""SpaceEx import: structure, semantics against closed forms, and one-line errors."""
+"""SpaceEx import: structure, semantics against closed forms, one-line errors, and networks
+written as components that simulate like the flat import."""
 
 from __future__ import annotations
 
 import math
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +14,13 @@ from hypothesis import strategies as st
 
 import hybridlab
 from hybridlab.cli import main
-from hybridlab.io import ConstraintSet, SpaceExError, load_spaceex, loads_spaceex
+from hybridlab.io import (
+    ConstraintSet,
+    SpaceExError,
+    load_spaceex,
+    loads_spaceex,
+    loads_spaceex_components,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 SPACEEX = ROOT / "models" / "spaceex"
@@ -352,3 +360,136 @@ def test_an_imported_name_means_exactly_what_the_xml_means(tmp_path, name):
 def test_a_cfg_key_given_twice_is_an_error():
     cfg = BALL_CFG + "\ntime-horizon = 50"
     assert "line 3: the key is given twice" in error_of(ball_xml(), cfg)
+
+
+# ------------------------------------------------------------------ networks as components
+
+def written(tmp_path: Path, name: str) -> tuple[Path, Path]:
+    """``import spaceex NAME -o`` and ``flatten`` of what it wrote."""
+    out, flat = tmp_path / f"{name}.toml", tmp_path / f"{name}_flat.toml"
+    assert main(["import", "spaceex", str(SPACEEX / f"{name}.xml"), "--cfg",
+                 str(SPACEEX / f"{name}.cfg"), "-o", str(out)]) == 0
+    assert main(["flatten", str(out), "-o", str(flat)]) == 0
+    return out, flat
+
+
+def same_events(imported: hybridlab.io.SpaceExComponents, model: hybridlab.Model,
+                t_end: float) -> int:
+    """Simulate the flat import and ``model``: the same jumps at the same times."""
+    a = hybridlab.simulate(imported.problem.model, t_end, backend="reference")
+    b = hybridlab.simulate(model, t_end, backend="reference")
+    assert a.status.ok and b.status.ok
+    modes = imported.modes or {m: m for m in imported.problem.model.modes}
+    assert [(modes[e.source], modes[e.target]) for e in a.jumps] == \
+        [(e.source, e.target) for e in b.jumps]
+    assert np.allclose([e.t for e in a.jumps], [e.t for e in b.jumps], rtol=0, atol=1e-10)
+    names = imported.names or {s: s for s in imported.problem.model.state_names}
+    for flat, qualified in names.items():
+        if flat in a.final.state:
+            assert a.final.state[flat] == pytest.approx(b.final.state[qualified], abs=1e-10)
+    return len(a.jumps)
+
+
+def test_two_rooms_network_is_written_as_components(tmp_path):
+    out, flat = written(tmp_path, "two_rooms")
+    text = out.read_text()
+    doc = tomllib.loads(text)
+    assert list(doc["templates"]) == ["room", "heater"]
+    assert doc["instances"]["room2"] == {
+        "template": "room", "parameters": {"a": 0.07}, "initial": {"T": 17.0},
+        "labels": {"start": "start2", "stop": "stop2"}, "connect": {"T_other": "room1.T"}}
+    assert "# renamed: T1 -> room1.T" in text and "# forbidden: room1.T <= 12" in text
+    imported = hybridlab.io.spaceex_components(SPACEEX / "two_rooms.xml",
+                                               SPACEEX / "two_rooms.cfg")
+    model = hybridlab.load_model(out)
+    assert hybridlab.load_model(flat) == model
+    assert model.initial.mode == "room1.off|room2.off|heater.idle"
+    assert same_events(imported, model, 40.0) >= 4
+    # the same network as hybridlab's own two_rooms.toml: the same runs
+    own = hybridlab.load_model(ROOT / "models" / "two_rooms.toml")
+    a = hybridlab.simulate(own, 40.0, backend="reference")
+    b = hybridlab.simulate(model, 40.0, backend="reference")
+    assert [(e.source, e.target) for e in a.jumps] == [(e.source, e.target) for e in b.jumps]
+    assert np.allclose([e.t for e in a.jumps], [e.t for e in b.jumps], rtol=0, atol=1e-10)
+
+
+def test_room_heating_is_one_automaton_and_stays_flat(tmp_path):
+    out, flat = written(tmp_path, "room_heating")
+    problem = load_spaceex(SPACEEX / "room_heating.xml", SPACEEX / "room_heating.cfg")
+    assert "# one automaton: written as a flat model" in out.read_text()
+    assert hybridlab.load_model(out) == problem.model == hybridlab.load_model(flat)
+    imported = hybridlab.io.spaceex_components(SPACEEX / "room_heating.xml",
+                                               SPACEEX / "room_heating.cfg")
+    assert imported.document is None
+    assert same_events(imported, hybridlab.load_model(flat), 3.0) >= 2
+
+
+CFG = 'initially = "t == 0 & n == 0 & loc(cnt) == odd"\nforbidden = "n >= 5 & loc(cnt) == odd"'
+
+
+def test_labels_synchronise_and_loc_sets_the_initial_and_forbidden_modes():
+    imported = loads_spaceex_components(TIMED, CFG, source="timed.xml")
+    doc = imported.document
+    assert doc is not None
+    assert doc["instances"] == {"clk": {"template": "timer"}, "cnt": {"template": "counter"}}
+    assert doc["templates"]["counter"]["initial"] == {"mode": "odd"}  # the cfg's loc(cnt)
+    assert doc["templates"]["counter"]["transitions"][0] == {
+        "name": "tick", "source": "even", "target": "odd", "reset": {"n": "n + 1"},
+        "label": "tick"}  # no guard of its own: the timer's decides
+    assert "# forbidden: cnt.n >= 5 in modes clk.wait|cnt.odd" in imported.text()
+    model = imported.model()
+    assert model.initial.mode == "clk.wait|cnt.odd"
+    assert same_events(imported, model, 3.5) == 3
+    # a label that only one automaton declares interleaves: no label in the file
+    alone = TIMED.replace('<map key="tick">tick</map></bind>\n  <bind component="counter"',
+                          '</bind>\n  <bind component="counter"')
+    imported = loads_spaceex_components(alone, CFG)
+    assert imported.document is not None
+    assert all("label" not in tr for tpl in imported.document["templates"].values()
+               for tr in tpl["transitions"])
+    model = imported.model()  # built only when its modes have the flat import's transitions
+    assert [tr.name for tr in model.transitions] == ["clk.tick", "cnt.tick", "cnt.tick_2"]
+
+
+COUNTER_TICKS = ('<transition source="1" target="2"><label>tick</label>',
+                 '<transition source="2" target="1"><label>tick</label>')
+TIMER_TICK = '<transition source="1" target="1"><label>tick</label>'
+CANNOT = {
+    # the counter, not the timer, resets the timer's clock
+    "'cnt' assigns 't_', whose flow another component gives (a component resets only its own "
+    "states)":
+        TIMED.replace("\n    <assignment>t := 0</assignment>", "")
+             .replace("n' == n + 1</assignment>", "n' == n + 1 &amp; t := 0</assignment>")
+             .replace('<component id="counter">', '<component id="counter">' + PARAM.format(
+                 "t", "any"))
+             .replace('<map key="n">n</map>', '<map key="n">n</map><map key="t">t</map>'),
+    # the counter declares tick but has no transition with it: the timer's never fires
+    "label 'tick' is declared by 'cnt', which has no transition with it (it blocks the "
+    "others')":
+        TIMED.replace(COUNTER_TICKS[0], '<transition source="1" target="2">')
+             .replace(COUNTER_TICKS[1], '<transition source="2" target="1">'),
+    # a plain transition between two ticks of one location: the product tries the three in
+    # the order of the XML, components would try the ticks first
+    "'clk' in location 'wait' would try simultaneous transitions in another order":
+        TIMED.replace(TIMER_TICK, TIMER_TICK + '<guard>t &gt;= 1</guard></transition>'
+                      '<transition source="1" target="1"><guard>t &gt;= 1</guard></transition>'
+                      + TIMER_TICK),
+}
+
+
+@pytest.mark.parametrize("note", list(CANNOT))
+def test_what_components_cannot_say_keeps_the_product(note):
+    imported = loads_spaceex_components(CANNOT[note], CFG, source="timed.xml")
+    assert imported.document is None and imported.note == "written as the product: " + note
+    text = imported.text()
+    assert f"\n# {imported.note}\n" in text
+    assert hybridlab.loads_model(text) == imported.problem.model
+
+
+def test_flat_option_writes_todays_product(capsys):
+    assert main(["import", "spaceex", str(SPACEEX / "two_rooms.xml"), "--cfg",
+                 str(SPACEEX / "two_rooms.cfg"), "--flat"]) == 0
+    text = capsys.readouterr().out
+    problem = load_spaceex(SPACEEX / "two_rooms.xml", SPACEEX / "two_rooms.cfg")
+    assert hybridlab.loads_model(text) == problem.model
+    assert "templates" not in tomllib.loads(text)

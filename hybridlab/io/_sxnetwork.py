@@ -177,10 +177,13 @@ class _Writer:
         self.autos = imp.automata
         self.model = imp.problem.model
         self.inst_names: list[str] = []
+        self.tnames: list[dict[str, str]] = []  # per automaton: formal -> template name
         self.globals: set[str] = set()  # the product's names of SpaceEx variables
         taken: set[str] = set()
         for a in self.autos:
             self.inst_names.append(_hybrid_name(a.inst.name, taken))
+            local: set[str] = set()
+            self.tnames.append({f: _hybrid_name(f, local) for f in a.names})
 
     # ----- who owns what ------------------------------------------------------------------
     def owners(self) -> dict[str, int]:
@@ -269,8 +272,7 @@ class _Writer:
                  keep_guard: set[int]) -> dict[str, Any]:
         a = self.autos[i]
         base = a.inst.base
-        taken: set[str] = set()
-        tnames = {f: _hybrid_name(f, taken) for f in a.names}
+        tnames = self.tnames[i]
         symbols: dict[str, sp.Expr] = {h: sp.Symbol(h, real=True) for h in tnames.values()}
         states = [tnames[f] for f, r in roles.items() if r.kind == "state"]
         consts = [tnames[f] for f, r in roles.items() if r.kind != "state"]
@@ -328,8 +330,7 @@ class _Writer:
             self.check_order(i, lab)
         names: dict[str, str] = {}
         for i, rs in enumerate(roles):
-            taken: set[str] = set()
-            tnames = {f: _hybrid_name(f, taken) for f in self.autos[i].names}
+            tnames = self.tnames[i]
             for f, r in rs.items():
                 if r.kind != "input" and r.flat not in names:
                     names[r.flat] = f"{self.inst_names[i]}.{tnames[f]}"
@@ -358,7 +359,7 @@ class _Writer:
             connect = {}
             for f, r in roles[i].items():
                 if r.kind == "input":
-                    connect[_hybrid_name(f, set())] = names[r.flat]
+                    connect[self.tnames[i][f]] = names[r.flat]
             if connect:
                 inst["connect"] = connect
             instances[self.inst_names[i]] = inst
