@@ -87,8 +87,8 @@ def test_a_model_with_discrete_variables_round_trips_and_summarises() -> None:
      "transitions[2].reset.armed: a bool variable takes 0 or 1, false or true (got 2.0) "
      "(token '2')"),
     ({'count = "count + 1"': 'count = "count + 0.5"'},
-     "transitions[0].reset.count: a int variable takes whole numbers; this reset never gives "
-     "one (token 'count + 0.5')"),
+     "transitions[0].reset.count: this reset never gives a whole number, as the int variable "
+     "needs (token 'count + 0.5')"),
 ])
 def test_bad_discrete_input_is_one_line(edit: dict[str, str], message: str) -> None:
     with pytest.raises(ModelError) as info:

@@ -649,6 +649,6 @@ def _check_reset(kind: str, expr: sp.Expr, integers: Mapping[sp.Symbol, sp.Symbo
         if expr.is_real:
             problem = value_problem(kind, float(expr))
     elif expr.xreplace(integers).is_integer is False:
-        problem = f"a {kind} variable takes whole numbers; this reset never gives one"
+        problem = f"this reset never gives a whole number, as the {kind} variable needs"
     if problem is not None:
         raise _fail(problem, key, text)

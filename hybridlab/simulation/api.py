@@ -115,19 +115,11 @@ def check_jumps(compiled: CompiledModel, result: SimulationResult) -> None:
     Examples
     --------
     >>> import hybridlab
-    >>> halve = hybridlab.loads_model('''
-    ... name = "halve"
-    ... states = { x = 0.0 }
-    ... discrete = { n = 5 }
-    ... modes.m.flow.x = "1"
-    ... initial.mode = "m"
-    ... [[transitions]]
-    ... name = "tick"
-    ... source = "m"
-    ... target = "m"
-    ... guard = "x >= 1"
-    ... reset = { x = "0", n = "n/2" }
-    ... ''')
+    >>> halve = hybridlab.model_from_dict({
+    ...     "name": "halve", "states": {"x": 0.0}, "discrete": {"n": 5},
+    ...     "modes": {"m": {"flow": {"x": "1"}}}, "initial": {"mode": "m"},
+    ...     "transitions": [{"name": "tick", "source": "m", "target": "m",
+    ...                      "schedule": {"period": 1.0, "phase": 1.0}, "reset": {"n": "n/2"}}]})
     >>> hybridlab.simulate(halve, t_end=2.0, backend="reference")
     Traceback (most recent call last):
     ...
