@@ -23,6 +23,7 @@ from typing import Any
 
 import sympy as sp
 
+from hybridlab.errors import ModelError
 from hybridlab.io._sxheader import problem_header
 from hybridlab.io.spaceex import (
     ConstraintSet,
@@ -148,7 +149,11 @@ def loads_spaceex_components(xml: str | bytes, cfg: str | None = None, *,
     try:
         writer = _Writer(imp, source, cfg_source)
         document, names, modes = writer.document()
-        _same_product(problem.model, model_from_dict(document, source=source), names, modes)
+        try:
+            product = model_from_dict(document, source=source)
+        except ModelError as exc:  # a rule of components this writer does not foresee
+            raise _Flat(f"the components do not load ({exc.message})") from None
+        _same_product(problem.model, product, names, modes)
     except _Flat as exc:
         return SpaceExComponents(problem, None, f"written as the product: {exc}", {}, {},
                                  {})
