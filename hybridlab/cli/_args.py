@@ -132,20 +132,27 @@ def require_finite(value: float | None, option: str, *,
     return value
 
 
-def assignments(items: Sequence[str] | None, option: str) -> dict[str, float]:
-    """``NAME=VALUE`` items as finite numbers by name.
+def assignments(items: Sequence[str] | None, option: str, *,
+                booleans: bool = False) -> dict[str, float | bool]:
+    """``NAME=VALUE`` items as finite numbers by name; with ``booleans``, ``true`` and
+    ``false`` too (the values of a bool discrete variable).
 
     Examples
     --------
     >>> assignments(["g=9.81", "e = 0.5"], "--set")
     {'g': 9.81, 'e': 0.5}
+    >>> assignments(["armed=true", "h=2"], "--init", booleans=True)
+    {'armed': True, 'h': 2.0}
     >>> assignments(["g=x"], "--set")
     Traceback (most recent call last):
     ...
     hybridlab.cli._args.UsageError: --set g: 'x' is not a number
     """
-    out: dict[str, float] = {}
+    out: dict[str, float | bool] = {}
     for item in items or ():
         name, value = split_assignment(item, option, error=UsageError)
-        out[name] = finite_number(value, f"{option} {name}", error=UsageError)
+        if booleans and value.strip() in ("true", "false"):
+            out[name] = value.strip() == "true"
+        else:
+            out[name] = finite_number(value, f"{option} {name}", error=UsageError)
     return out

@@ -29,7 +29,7 @@ def _run(args: argparse.Namespace) -> int:
     for option in ("t_end", "rtol", "atol", "max_step", "time_limit", "dt"):
         require_finite(getattr(args, option), "--" + option.replace("_", "-"), error=UsageError)
     params = assignments(args.set, "--set")
-    initial = assignments(args.init, "--init")
+    initial = assignments(args.init, "--init", booleans=True)
     out = Path(args.out) if args.out else None
     if out is not None and out.suffix.lower() not in (".json", ".csv", ".npz"):
         raise UsageError(f"--out must end in .json, .csv or .npz (got {args.out!r})")
