@@ -21,17 +21,14 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-import sympy as sp
-
 from hybridlab.errors import ModelError
+from hybridlab.io._sxexpr import Atom
 from hybridlab.io._sxheader import problem_header
 from hybridlab.io.spaceex import (
     ConstraintSet,
     SpaceExImport,
     SpaceExProblem,
     _Automaton,
-    _automaton,
-    _Ctx,
     _hybrid_name,
     _relations,
     import_spaceex,
@@ -278,12 +275,14 @@ class _Writer:
         a = self.autos[i]
         base = a.inst.base
         tnames = self.tnames[i]
-        symbols: dict[str, sp.Expr] = {h: sp.Symbol(h, real=True) for h in tnames.values()}
-        states = [tnames[f] for f, r in roles.items() if r.kind == "state"]
-        consts = [tnames[f] for f, r in roles.items() if r.kind != "state"]
-        ctx = _Ctx(self.source, self.cfg_source, {}, symbols, states, consts)
-        parsed: _Automaton = _automaton(a.inst, tnames, ctx)
-        bound = {symbols[tnames[f]] for f, r in roles.items() if r.bound}
+        local: dict[str, str] = {}  # the product's names -> the template's
+        for f, r in roles.items():
+            local.setdefault(r.flat, tnames[f])
+
+        def q(text: str) -> str:
+            return rename(text, local)
+
+        bounded = {a.names[f] for f, r in roles.items() if r.bound}
         values = self.imp.values
         tpl: dict[str, Any] = {}
         params = {tnames[f]: values[r.flat] for f, r in roles.items() if r.kind == "parameter"}
@@ -297,10 +296,10 @@ class _Writer:
         modes: dict[str, Any] = {}
         self.mode_names = _location_names(a)
         for lid, loc in base.locations.items():
-            entry: dict[str, Any] = {"flow": parsed.flows[lid]}
-            atoms = [at for at in parsed.invariants[lid]
-                     if not bound & (at.lhs.expr - at.rhs.expr).free_symbols]  # type: ignore[operator]
-            invariant = _relations(atoms, self.source, loc.path + "/invariant")
+            entry: dict[str, Any] = {"flow": {local[v]: q(rhs) for v, rhs in a.flows[lid].items()}}
+            atoms = [at for at in a.invariants[lid]  # less the inputs' bounds, as flat
+                     if not bounded & set(map(str, _free(at)))]
+            invariant = [q(r) for r in _relations(atoms, self.source, loc.path + "/invariant")]
             if invariant:
                 entry["invariant"] = invariant
             modes[self.mode_names[lid]] = entry
@@ -308,7 +307,7 @@ class _Writer:
         transitions = []
         used: dict[str, int] = {}
         for k, (tr, (src, dst, _, guard, reset, _, _)) in enumerate(
-                zip(base.transitions, parsed.transitions, strict=True)):
+                zip(base.transitions, a.transitions, strict=True)):
             stem = tr.label.replace(".", "_") if tr.label else "tau"
             used[stem] = used.get(stem, 0) + 1
             item: dict[str, Any] = {
@@ -316,9 +315,9 @@ class _Writer:
                 "source": self.mode_names[src], "target": self.mode_names[dst]}
             synced = bool(tr.label) and labels.get(tr.label) is not None
             if guard or not synced or k in keep_guard:
-                item["guard"] = guard or ["0 <= 0"]
+                item["guard"] = [q(g) for g in guard] or ["0 <= 0"]
             if reset:
-                item["reset"] = reset
+                item["reset"] = {local[v]: q(rhs) for v, rhs in reset.items()}
             if synced:
                 item["label"] = tr.label
             transitions.append(item)
@@ -395,6 +394,11 @@ class _Writer:
                 for i, k in pairs:
                     out.setdefault(i, set()).add(k)
         return out
+
+
+def _free(atom: Atom) -> set[Any]:
+    """The symbols of a relation."""
+    return set((atom.lhs.expr - atom.rhs.expr).free_symbols)  # type: ignore[operator]
 
 
 def _formal_label(a: _Automaton, label: str) -> str:
