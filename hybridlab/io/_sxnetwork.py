@@ -7,8 +7,9 @@ product hybridlab's components loader builds (:mod:`hybridlab.model.compose`). A
 variable belongs to the instance that gives it its flow (its state there); the other
 instances read it through an input connected to it. A constant, or a variable without
 flow (an input bounded by the invariants), is a parameter of the first instance that
-uses it. SpaceEx labels become synchronisation labels; a label only one automaton uses
-leaves its transitions unlabelled, as in SpaceEx.
+uses it (so instances of one component that share it differently get a template each).
+SpaceEx labels become synchronisation labels; a label only one automaton uses leaves
+its transitions unlabelled, as in SpaceEx.
 
 Where the components format cannot say what the product says, the file stays the
 product, with a one-line note saying why (:attr:`SpaceExComponents.note`).
