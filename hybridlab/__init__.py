@@ -24,6 +24,7 @@ if TYPE_CHECKING:  # the public names, loaded on first use (hybridlab._lazy)
     from hybridlab.identify import fit_events, fit_friction, fit_mass, fit_targets
     from hybridlab.io import load_spaceex
     from hybridlab.model import (
+        Discrete,
         Initial,
         Mechanics,
         Mode,
@@ -67,6 +68,7 @@ __all__ = [
     "Box",
     "CompilationError",
     "CompiledModel",
+    "Discrete",
     "Event",
     "ExpressionError",
     "GraphReport",

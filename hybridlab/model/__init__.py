@@ -15,6 +15,7 @@ if TYPE_CHECKING:  # the public names, loaded on first use (hybridlab._lazy)
         model_json_schema,
     )
     from hybridlab.model.schema import (
+        Discrete,
         Initial,
         Mechanics,
         Mode,
@@ -29,6 +30,7 @@ if TYPE_CHECKING:  # the public names, loaded on first use (hybridlab._lazy)
 __getattr__, __dir__ = lazy_exports(__name__, __file__)
 
 __all__ = [
+    "Discrete",
     "Initial",
     "Mechanics",
     "Mode",
