@@ -493,3 +493,26 @@ def test_flat_option_writes_todays_product(capsys):
     problem = load_spaceex(SPACEEX / "two_rooms.xml", SPACEEX / "two_rooms.cfg")
     assert hybridlab.loads_model(text) == problem.model
     assert "templates" not in tomllib.loads(text)
+
+
+def test_a_constant_of_one_value_keeps_one_template_an_uncertain_one_is_shared():
+    ball = ball_xml().replace('name="hop" type="label" local="false"',
+                              'name="hop" type="label" local="true"')
+    for local in ("x", "v"):
+        ball = ball.replace(f'name="{local}" type="real" local="false"',
+                            f'name="{local}" type="real" local="true"')
+    xml = ball.replace("</sspaceex>", f"""<component id="pair">{PARAM.format("g", "const")}
+      <bind component="ball" as="b1"><map key="g">g</map><map key="c">0.8</map></bind>
+      <bind component="ball" as="b2"><map key="g">g</map><map key="c">0.9</map></bind>
+      </component></sspaceex>""")
+    init = 'initially = "b1.x == 10 & b1.v == 0 & b2.x == 5 & b2.v == 0 & {}"'
+    one = loads_spaceex_components(xml, init.format("g == 9.81")).document
+    assert one is not None and list(one["templates"]) == ["ball"]
+    assert one["instances"]["b2"] == {"template": "ball", "parameters": {"c": 0.9},
+                                      "initial": {"x": 5.0}}
+    uncertain = loads_spaceex_components(xml, init.format("g >= 9.8 & g <= 9.82"))
+    assert uncertain.document is not None and list(uncertain.document["templates"]) == [
+        "ball", "ball_"]
+    assert uncertain.document["instances"]["b2"]["connect"] == {"g": "b1.g"}
+    assert "# uncertain constant: b1.g in [9.8, 9.82]" in uncertain.text()
+    assert uncertain.model().parameter_names == ("b1.g", "b1.c", "b2.c")

@@ -5,9 +5,11 @@ The import (:func:`hybridlab.io.spaceex.import_spaceex`) resolves the network an
 builds its product; this module writes the same network as a components file, whose
 product hybridlab's components loader builds (:mod:`hybridlab.model.compose`). A global
 variable belongs to the instance that gives it its flow (its state there); the other
-instances read it through an input connected to it. A constant, or a variable without
-flow (an input bounded by the invariants), is a parameter of the first instance that
-uses it (so instances of one component that share it differently get a template each).
+instances read it through an input connected to it. A constant of one value is a
+parameter of each instance that uses it; an uncertain constant (an interval) or a
+variable without flow (an input bounded by the invariants) is one parameter, of the
+first instance that uses it, read by the others (so instances of one component that
+differ in this get a template each).
 SpaceEx labels become synchronisation labels; a label only one automaton uses leaves
 its transitions unlabelled, as in SpaceEx.
 
@@ -219,11 +221,15 @@ class _Writer:
 
     def roles(self, i: int, owner: Mapping[str, int]) -> dict[str, _Role]:
         a = self.autos[i]
-        bounded = set(self.imp.problem.inputs)
+        problem = self.imp.problem
+        bounded = set(problem.inputs)
+        # one value: a parameter of each instance, as if the binds had mapped it to the number
+        shared = bounded | {c for c, v in problem.params.items() if isinstance(v, tuple)}
         out = {}
         for formal, flat in a.names.items():
             kind = "input"
-            if isinstance(a.inst.vars[formal], float) or owner.get(flat) == i:
+            if (isinstance(a.inst.vars[formal], float) or owner.get(flat) == i
+                    or (flat not in self.model.states and flat not in shared)):
                 kind = "state" if flat in self.model.states else "parameter"
             out[formal] = _Role(kind, flat, flat in bounded)
         return out
