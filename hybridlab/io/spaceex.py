@@ -528,6 +528,13 @@ class SpaceExImport:
         The initial location ids, one tuple per initial product mode, the first the model's.
     modes : dict of tuple of str to str
         Location ids per automaton -> product mode name.
+
+    Examples
+    --------
+    >>> import pathlib
+    >>> imp = import_spaceex(pathlib.Path("models/spaceex/two_rooms.xml").read_bytes())
+    >>> len(imp.automata), imp.problem.model.name == imp.system
+    (3, True)
     """
 
     problem: SpaceExProblem
