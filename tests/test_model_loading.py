@@ -656,7 +656,7 @@ def test_committed_schema_file_is_in_sync() -> None:
 
 
 def _schema_errors(value: Any, schema: dict, root: dict, path: str = "") -> list[str]:
-    """The JSON-schema subset pydantic emits here: $ref, type, properties,
+    """The JSON-schema subset pydantic emits here: $ref, type (one or a list), properties,
     additionalProperties, required, items, anyOf, min/maxLength, exclusiveMinimum."""
     if "$ref" in schema:
         name = schema["$ref"].removeprefix("#/$defs/")
@@ -667,8 +667,12 @@ def _schema_errors(value: Any, schema: dict, root: dict, path: str = "") -> list
     kinds = {"object": dict, "array": list, "string": str, "boolean": bool,
              "integer": int, "number": (int, float), "null": type(None)}
     kind = schema.get("type")
-    if kind and (not isinstance(value, kinds[kind])
-                 or (kind in ("integer", "number") and isinstance(value, bool))):
+
+    def matches(k: str) -> bool:
+        return isinstance(value, kinds[k]) and not (k in ("integer", "number")
+                                                     and isinstance(value, bool))
+
+    if kind and not any(matches(k) for k in ([kind] if isinstance(kind, str) else kind)):
         return [f"{path}: {type(value).__name__} is not {kind}"]
     errors = []
     if isinstance(value, dict):
