@@ -23,6 +23,7 @@ if TYPE_CHECKING:  # the public names, loaded on first use (hybridlab._lazy)
         Parameter,
         Scenario,
         Schedule,
+        Signal,
         State,
         Transition,
     )
@@ -38,6 +39,7 @@ __all__ = [
     "Parameter",
     "Scenario",
     "Schedule",
+    "Signal",
     "State",
     "SymbolicModel",
     "Transition",

@@ -10,6 +10,7 @@ import graphlib
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import sympy as sp
@@ -26,6 +27,7 @@ from hybridlab.model.expressions import (
 )
 from hybridlab.model.names import aliases as unqualified_aliases
 from hybridlab.model.names import match_modes, mode_target
+from hybridlab.model.signals import check_table, lower_table, read_csv_table
 
 if TYPE_CHECKING:
     from hybridlab.model.schema import Model
@@ -158,8 +160,8 @@ class SymbolicTransition:
 class SymbolicModel:
     """The sympy form of a :class:`~hybridlab.model.schema.Model`.
 
-    Definitions are substituted everywhere, so every expression is over
-    states, parameters and ``t`` only. The discrete variables come last among the
+    Definitions and input signals (:attr:`signals`) are substituted everywhere, so every
+    expression is over states, parameters and ``t`` only. The discrete variables come last among the
     states, each with the flow 0 in every mode; :attr:`discrete` gives their types.
 
     Examples
@@ -185,6 +187,7 @@ class SymbolicModel:
     local_names: frozenset[str] = frozenset()
     aliases: Mapping[str, str] = field(default_factory=dict)
     discrete: Mapping[str, str] = field(default_factory=dict)
+    signals: Mapping[str, sp.Expr] = field(default_factory=dict)
 
     @property
     def continuous(self) -> int:
@@ -227,6 +230,7 @@ class SymbolicModel:
         names: dict[str, sp.Expr] = {"t": TIME}
         names.update(zip(self.parameter_names, self.parameters, strict=True))
         names.update(zip(self.state_names, self.states, strict=True))
+        names.update(self.signals)
         names.update({n: _local_symbol(n) for n in self.local_names})
         names.update(self.definitions)
         names.update({alias: names[full] for alias, full in self.aliases.items()})
@@ -268,7 +272,7 @@ def _relations(text: str, names: Mapping[str, sp.Expr], key: str,
 def _declared_names(model: Model) -> set[str]:
     """Check every declared name; return the names of mode-local definitions."""
     seen: dict[str, str] = {}
-    for section in ("parameters", "states", "discrete", "definitions"):
+    for section in ("parameters", "states", "discrete", "signals", "definitions"):
         for name in getattr(model, section):
             try:
                 check_qualified_name(name)
@@ -320,6 +324,27 @@ def _definitions(texts: Mapping[str, str], base: dict[str, sp.Expr],
                         f"uses substituted (at most {MAX_TREE_NODES}); use fewer nested "
                         "definitions", f"{prefix}.{name}", name)
     return {name: resolved[name] for name in texts}
+
+
+def _signals(model: Model, names: Mapping[str, sp.Expr]) -> dict[str, sp.Expr]:
+    """Each input signal as an expression in ``t`` (and the parameters, for ``expr``)."""
+    out: dict[str, sp.Expr] = {}
+    for name, signal in model.signals.items():
+        key = f"signals.{name}"
+        given = [f for f in ("table", "file", "expr") if getattr(signal, f) is not None]
+        if len(given) != 1:
+            raise _fail("a signal needs exactly one of table, file, expr", key,
+                        ", ".join(given) or name)
+        if signal.expr is not None:
+            out[name] = _parse(signal.expr, names, f"{key}.expr")
+            continue
+        rows = (signal.table if signal.table is not None
+                else read_csv_table(Path(signal.file or ""), f"{key}.file"))
+        problem = check_table(rows)  # a file's rows are checked as it is read
+        if problem is not None:
+            raise _fail(problem, f"{key}.table", name)
+        out[name] = lower_table(rows, signal.interpolation, TIME)
+    return out
 
 
 def _schedule_value(value: float | str, parameters: Mapping[str, sp.Expr], key: str) -> sp.Expr:
@@ -473,7 +498,8 @@ def build_symbolic(model: Model) -> SymbolicModel:
     base: dict[str, sp.Expr] = {"t": TIME}
     base.update(zip(parameter_names, parameters, strict=True))
     base.update(zip(state_names, states, strict=True))
-    base_with_local = {**base, **{n: _local_symbol(n) for n in all_local}}
+    signals = _signals(model, {"t": TIME, **dict(zip(parameter_names, parameters, strict=True))})
+    base_with_local = {**base, **signals, **{n: _local_symbol(n) for n in all_local}}
     aliases = unqualified_aliases([*parameter_names, *state_names, *model.definitions,
                                    *sorted(all_local)])
     flags = frozenset(base[n] for n, kind in kinds.items() if kind == "bool")
@@ -625,6 +651,7 @@ def build_symbolic(model: Model) -> SymbolicModel:
         local_names=frozenset(all_local),
         aliases=aliases,
         discrete=kinds,
+        signals=signals,
     )
 
 

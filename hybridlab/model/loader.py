@@ -14,6 +14,7 @@ from pydantic import ValidationError
 from hybridlab._files import read_bounded
 from hybridlab.errors import ModelError
 from hybridlab.model.schema import Model
+from hybridlab.model.signals import inline_files
 
 __all__ = ["load_model", "loads_model", "model_from_dict", "dumps_model", "model_json_schema"]
 
@@ -134,6 +135,7 @@ def model_from_dict(data: Mapping[str, Any], *, source: str = "<dict>",
         except (RecursionError, MemoryError, OverflowError):
             raise ModelError("model is too deeply nested or too large", source=source) from None
     try:
+        data = inline_files(data, Path(path).parent if path is not None else Path())
         return Model.model_validate(data)
     except ValidationError as exc:
         raise _from_validation_error(exc, data).with_source(source) from None

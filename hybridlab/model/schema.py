@@ -29,6 +29,7 @@ __all__ = [
     "Parameter",
     "State",
     "Discrete",
+    "Signal",
     "Mode",
     "Schedule",
     "Transition",
@@ -212,6 +213,33 @@ class Discrete(_Frozen):
         return _discrete_shorthand(value)
 
 
+class Signal(_Frozen):
+    """An input signal: a table over time or an explicit function of time.
+
+    Give exactly one of ``table`` (rows ``[t, value]``, times strictly increasing),
+    ``file`` (a CSV file of such rows, relative to the model file; to the current folder
+    for a model built in Python) or ``expr`` (an expression in ``t`` and the
+    parameters). A table is interpolated linearly or holds the previous value
+    (``interpolation = "previous"``); before its first row and after its last the end
+    values hold. Flows, guards, invariants and resets use the signal's
+    name like a definition (:mod:`hybridlab.model.signals`).
+
+    Examples
+    --------
+    >>> Signal(table=[[0, 0.0], [1, 2.5]]).interpolation
+    'linear'
+    >>> Signal(expr="0.5*sin(2*t)").table is None
+    True
+    """
+
+    table: list[Annotated[list[Number], Field(min_length=2, max_length=2)]] | None = None
+    file: Annotated[str, Field(min_length=1)] | None = None
+    expr: Expression | None = None
+    interpolation: Literal["linear", "previous"] = "linear"
+    unit: str = "1"
+    description: str = ""
+
+
 class Mode(_Frozen):
     """A discrete mode: a flow expression for every state, and invariants.
 
@@ -384,6 +412,7 @@ class Model(_Frozen):
     parameters: dict[str, ParameterField] = Field(default_factory=dict)
     states: dict[str, StateField]
     discrete: dict[str, DiscreteField] = Field(default_factory=dict)
+    signals: dict[str, Signal] = Field(default_factory=dict)
     definitions: dict[str, Expression] = Field(default_factory=dict)
     mechanics: Mechanics | None = None
     modes: dict[str, Mode]
