@@ -31,7 +31,7 @@ __all__ = ["MAX_ROWS", "MAX_CSV_BYTES", "INTERPOLATIONS", "lower_table", "check_
 
 #: The most rows a table may have: each breakpoint is a switching function evaluated at
 #: every step (``docs/model-format.md`` gives the measured cost).
-MAX_ROWS = 200
+MAX_ROWS = 100
 #: The largest CSV file of a table read.
 MAX_CSV_BYTES = 64 * 1024
 #: The interpolations a table may ask for.
