@@ -69,6 +69,36 @@ guard = "wind >= 3"
     assert loads_model(dumps_model(model)) == model
 
 
+def test_a_held_value_is_read_at_its_breakpoint_by_a_guard_and_a_reset():
+    model = loads_model("""
+name = "valve"
+states = { x = 0.0 }
+modes.shut.flow.x = "valve"
+modes.open.flow.x = "0"
+initial.mode = "shut"
+signals.valve = { table = [[0, 0.0], [2, 1.0], [5, 0.0]], interpolation = "previous" }
+[[transitions]]
+name = "opened"
+source = "shut"
+target = "open"
+guard = "valve >= 0.5"
+reset = { x = "valve" }
+""")
+    result = hybridlab.simulate(model, t_end=3.0, backend="reference")
+    crossing, jump = result.events
+    assert (crossing.kind, jump.transition) == ("crossing", "opened")
+    assert jump.t == pytest.approx(2.0, abs=1e-12)
+    assert jump.post["x"] == 1.0
+
+
+def test_reachability_encloses_a_run_with_signals():
+    result = hybridlab.reach(loads_model(TRACK), t_end=2.0)
+    low, high = result.sets[-1].bounds().T
+    exact = _exact(2.0)
+    assert all(lo - 1e-9 <= v <= hi + 1e-9 for lo, v, hi in zip(low, exact, high, strict=True))
+    assert max(high - low) < 1e-3  # the breakpoints cost little width
+
+
 def test_both_engines_agree():
     pytest.importorskip("numba")
     model = loads_model(TRACK)
