@@ -14,8 +14,8 @@ from collections.abc import Sequence
 from typing import NoReturn
 
 __all__ = ["EXIT_BUG", "EXIT_FINDINGS", "EXIT_INCOMPLETE", "EXIT_INTERNAL", "EXIT_INTERRUPTED",
-           "EXIT_OK", "EXIT_USAGE", "Parser", "UsageError", "assignments", "finite_number",
-           "require_finite", "split_assignment"]
+           "EXIT_OK", "EXIT_USAGE", "Parser", "UsageError", "assignments", "emit",
+           "finite_number", "require_finite", "split_assignment"]
 
 #: exit codes: success; an internal error; a user error (one line on stderr); a run that
 #: ended early (or a verdict of UNKNOWN); ``graph --check`` findings
@@ -156,3 +156,25 @@ def assignments(items: Sequence[str] | None, option: str, *,
         else:
             out[name] = finite_number(value, f"{option} {name}", error=UsageError)
     return out
+
+
+def emit(text: str, out: str | None, wrote: str | None = "") -> int:
+    r"""Write ``text`` to the file ``out`` (replaced atomically) and print ``wrote {out}``
+    followed by ``wrote`` (nothing when ``wrote`` is ``None``), or print ``text`` when no
+    file is given; the exit code, ``EXIT_OK``.
+
+    Examples
+    --------
+    >>> emit("a = 1\n", None)
+    a = 1
+    0
+    """
+    if out:
+        from hybridlab._files import replace_text  # the command line starts without it
+
+        replace_text(out, text)
+        if wrote is not None:
+            print(f"wrote {out}{wrote}")
+    else:
+        print(text, end="")
+    return EXIT_OK

@@ -5,24 +5,18 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from hybridlab.cli._args import EXIT_OK
+from hybridlab.cli._args import emit
 
 __all__ = ["add_parser"]
 
 
 def _run(args: argparse.Namespace) -> int:
-    from hybridlab._files import replace_text
     from hybridlab.model.loader import dumps_model, load_model
 
     model = load_model(args.model)
     text = dumps_model(model)
-    if args.out:
-        replace_text(args.out, text)
-        print(f"wrote {args.out}: {len(model.states)} states, {len(model.modes)} modes, "
-              f"{len(model.transitions)} transitions")
-    else:
-        print(text, end="")
-    return EXIT_OK
+    return emit(text, args.out, f": {len(model.states)} states, {len(model.modes)} modes, "
+                                f"{len(model.transitions)} transitions")
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:

@@ -5,13 +5,12 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from hybridlab.cli._args import EXIT_FINDINGS, EXIT_OK, UsageError
+from hybridlab.cli._args import EXIT_FINDINGS, EXIT_OK, UsageError, emit
 
 __all__ = ["add_parser"]
 
 
 def _run(args: argparse.Namespace) -> int:
-    from hybridlab._files import replace_text
     from hybridlab.graph import check_mode_graph, to_dot
     from hybridlab.model.loader import load_model
 
@@ -24,12 +23,7 @@ def _run(args: argparse.Namespace) -> int:
         print(report)
         return EXIT_OK if report.ok else EXIT_FINDINGS
     text = to_dot(model)
-    if args.out:
-        replace_text(args.out, text)
-        print(f"wrote {args.out}")
-    else:
-        print(text, end="")
-    return EXIT_OK
+    return emit(text, args.out)
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:

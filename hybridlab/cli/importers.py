@@ -16,13 +16,12 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from hybridlab.cli._args import EXIT_OK
+from hybridlab.cli._args import emit
 
 __all__ = ["add_parser"]
 
 
 def _run_spaceex(args: argparse.Namespace) -> int:
-    from hybridlab._files import replace_text
     from hybridlab.io import load_spaceex, problem_header, spaceex_components
     from hybridlab.model.loader import dumps_model
 
@@ -31,12 +30,7 @@ def _run_spaceex(args: argparse.Namespace) -> int:
         text = problem_header(problem) + "\n" + dumps_model(problem.model)
     else:
         text = spaceex_components(args.model, args.cfg, system=args.system).text()
-    if args.out:
-        replace_text(args.out, text)
-        print(f"wrote {args.out}")
-    else:
-        print(text, end="")
-    return EXIT_OK
+    return emit(text, args.out)
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:

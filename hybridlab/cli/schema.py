@@ -6,21 +6,16 @@ import argparse
 import json
 from typing import Any
 
-from hybridlab.cli._args import EXIT_OK
+from hybridlab.cli._args import emit
 
 __all__ = ["add_parser"]
 
 
 def _run(args: argparse.Namespace) -> int:
-    from hybridlab._files import replace_text
     from hybridlab.model.loader import model_json_schema
 
     text = json.dumps(model_json_schema(), indent=2) + "\n"
-    if args.out:
-        replace_text(args.out, text)
-    else:
-        print(text, end="")
-    return EXIT_OK
+    return emit(text, args.out, None)
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
