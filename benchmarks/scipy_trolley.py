@@ -125,7 +125,8 @@ class Trolley:
         sc = model.scenarios[scenario]
         p = {name: q.value for name, q in model.parameters.items()} | sc.parameters
         p |= dict(params or {})
-        x = {name: s.initial for name, s in model.states.items()} | sc.initial
+        x = ({name: s.initial for name, s in model.states.items()}
+             | {name: float(d.value) for name, d in model.discrete.items()} | sc.initial)
         x |= dict(initial or {})
         for name in ("sampled", "latency"):
             if p[name] != 0.0:
