@@ -219,8 +219,35 @@ class SimulationResult:
                         strict=True))
 
     def state(self, name: str) -> np.ndarray:
-        """The stored trajectory of one state, aligned with :attr:`t`."""
-        return self.y[self.state_names.index(name)]
+        """The stored trajectory of one state, aligned with :attr:`t`.
+
+        In a model built from components, a qualified name (``heater.on_time``) may be
+        written without its component when no other component has that name.
+
+        Examples
+        --------
+        >>> import hybridlab
+        >>> rooms = hybridlab.simulate("models/two_rooms.toml", t_end=5.0, backend="reference")
+        >>> bool((rooms.state("on_time") == rooms.state("heater.on_time")).all())
+        True
+        >>> rooms.state("T")
+        Traceback (most recent call last):
+        ...
+        ValueError: 'T' is the state of several components; write one of: room1.T, room2.T
+        """
+        names = self.state_names
+        if name not in names:
+            from hybridlab.model.names import aliases  # the model layer's rule for names
+
+            qualified = aliases(names).get(name)
+            if qualified is None:
+                same = [n for n in names if n.endswith(f".{name}")]
+                raise ValueError(
+                    f"{name!r} is the state of several components; write one of: "
+                    f"{', '.join(same)}" if len(same) > 1 else
+                    f"no state {name!r} in this result; the states are {', '.join(names)}")
+            name = qualified
+        return self.y[names.index(name)]
 
     def _segment_at(self, t: float, j: int | None) -> Segment:
         segments = self.segments
