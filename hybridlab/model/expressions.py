@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from hybridlab.errors import ExpressionError
+from hybridlab.model.names import spellings
 
 __all__ = [
     "FUNCTIONS",
@@ -465,7 +466,7 @@ class _Builder:
                 return CONSTANTS[node.id]
             if node.id in FUNCTIONS:
                 raise ExpressionError("function used without arguments", node.id)
-            same = sorted(name for name in self.symbols if name.endswith(f".{node.id}"))
+            same = sorted(spellings(node.id, self.symbols))
             if len(same) > 1:  # the unqualified name of several components' variables
                 raise ExpressionError(f"several components have this name; write one of: "
                                       f"{', '.join(same)}", node.id)

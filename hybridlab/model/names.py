@@ -18,7 +18,7 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Iterable, Sequence
 
-__all__ = ["SEPARATOR", "aliases", "match_modes", "mode_parts", "mode_target"]
+__all__ = ["SEPARATOR", "aliases", "match_modes", "mode_parts", "mode_target", "spellings"]
 
 #: Joins the components' modes in the name of a product mode.
 SEPARATOR = "|"
@@ -43,6 +43,19 @@ def aliases(names: Iterable[str]) -> dict[str, str]:
     return {name.rsplit(".", 1)[1]: name for name in names
             if "." in name and last[name.rsplit(".", 1)[1]] == 1
             and name.rsplit(".", 1)[1] not in declared}
+
+
+def spellings(name: str, names: Iterable[str]) -> list[str]:
+    """The qualified ``names`` that ``name`` could mean unqualified (in ``names``' order).
+
+    More than one: ``name`` is shared by several components and must be qualified.
+
+    Examples
+    --------
+    >>> spellings("T", ["room1.T", "room2.T", "heater.P"])
+    ['room1.T', 'room2.T']
+    """
+    return [n for n in names if n.endswith(f".{name}")]
 
 
 def mode_parts(mode: str) -> dict[str, str]:

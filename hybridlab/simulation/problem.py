@@ -28,7 +28,7 @@ import numpy as np
 from hybridlab.errors import HybridlabError
 from hybridlab.model.discrete import value_problem
 from hybridlab.model.loader import load_model
-from hybridlab.model.names import match_modes
+from hybridlab.model.names import match_modes, spellings
 from hybridlab.model.schema import Model, Scenario
 from hybridlab.simulation.options import SimulationOptions
 from hybridlab.symbolic.compile import CompiledModel, compile_model
@@ -125,7 +125,7 @@ def interval(value: Any, what: str) -> tuple[float, float]:
 
 
 def _unknown(what: str, kind: str, name: str, names: tuple[str, ...]) -> ProblemError:
-    same = [n for n in names if n.endswith(f".{name}")]
+    same = spellings(name, names)
     if len(same) > 1:  # the unqualified name of several components' variables
         return ProblemError(f"{what}: {name!r} is the {kind} of several components; write "
                             f"one of: {', '.join(same)}")

@@ -237,11 +237,11 @@ class SimulationResult:
         """
         names = self.state_names
         if name not in names:
-            from hybridlab.model.names import aliases  # the model layer's rule for names
+            from hybridlab.model.names import aliases, spellings  # the model layer's rules
 
             qualified = aliases(names).get(name)
             if qualified is None:
-                same = [n for n in names if n.endswith(f".{name}")]
+                same = spellings(name, names)
                 raise ValueError(
                     f"{name!r} is the state of several components; write one of: "
                     f"{', '.join(same)}" if len(same) > 1 else
