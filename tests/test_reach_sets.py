@@ -151,6 +151,20 @@ def test_rows_the_whole_set_satisfies_are_dropped_before_the_cut():
     assert np.array_equal(Z.bounds_within([[0.0, 1.0]], [5.0]), Z.bounds())
 
 
+def test_opposite_rows_along_a_diagonal_are_one_slab_without_an_lp(monkeypatch):
+    # t >= tabort and t <= tabort: the rows (1, -1) and (-1, 1), whose norm squared
+    # (sqrt(2)**2) is not exactly 2; the slab needs no LP and equals the slab bounds
+    from hybridlab.reachability import lp
+
+    def no_lp(*args, **kwargs):
+        raise AssertionError("an LP for a slab")
+
+    monkeypatch.setattr(lp, "cut_bounds", no_lp)
+    Z = Zonotope([0.0, 0.0, 1.0], [[1.0, 0.2, 0.0], [0.0, 1.0, 0.0], [0.5, 0.0, 1.0]])
+    cut = Z.bounds_within([[-1.0, 1.0, 0.0], [1.0, -1.0, 0.0]], [0.0, 0.0])
+    assert np.array_equal(cut, Z.bounds_in_slab(np.array([-1.0, 1.0, 0.0]), -0.0, 0.0))
+
+
 # ----- boxes and polytopes ----------------------------------------------------------------------
 def test_box_and_polytope_agree_on_a_square():
     box = Box([0.0, 0.0], [1.0, 2.0])

@@ -560,12 +560,12 @@ class Zonotope:
 def _as_slab(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float, float] | None:
     """``A x <= b`` as ``lo <= a . x <= hi`` when every row is parallel to the first."""
     a = A[0]
-    na = float(np.linalg.norm(a))
-    if na == 0:
+    aa = float(a @ a)  # not the norm squared: sqrt(2)**2 != 2 would miss a = (1, -1)
+    if aa == 0:
         return None
     lo, hi = -np.inf, np.inf
     for row, bi in zip(A, b, strict=True):
-        k = float(row @ a) / na**2
+        k = float(row @ a) / aa
         if k == 0 or not np.allclose(row, k * a, rtol=0, atol=1e-15 * np.abs(row).max()):
             return None
         if np.any(row != k * a):  # not exactly parallel: leave it to the LP
