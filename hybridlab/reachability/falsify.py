@@ -269,7 +269,7 @@ class FalsificationSearch:
         self.problem = problem
         self.specs = tuple(specs)
         self.options = options or FalsifyOptions()
-        self._fns = _Margins(problem.compiled, self.specs).fns
+        self._fns: list[dict[str, VectorFunction]] | None = None  # built on the first run
         self._rng = np.random.default_rng(self.options.seed)
         self._lowest = {s.text: math.inf for s in self.specs}
         self._best_u: list[list[tuple[float, np.ndarray]]] = [[] for _ in self.specs]
@@ -283,6 +283,13 @@ class FalsificationSearch:
         # and only while this process has not loaded the kernel anyway)
         self._reference_steps = 0 if _reference_first(problem) else None
         self._planned = 0  # runs still planned in the current stage, after the current one
+
+    def _margin_functions(self) -> list[dict[str, VectorFunction]]:
+        """The specs' rows compiled per mode (on the first run: a verdict proved without
+        simulation never needs them)."""
+        if self._fns is None:
+            self._fns = _Margins(self.problem.compiled, self.specs).fns
+        return self._fns
 
     def sample(self) -> Falsification:
         """Simulate the centre, the corners and the Latin-hypercube samples."""
@@ -337,7 +344,7 @@ class FalsificationSearch:
             self._incomplete += 1
         samples = sample_trajectory(result)  # once for every spec
         out = [trajectory_margin(result, s, fns, p, samples)
-               for s, fns in zip(self.specs, self._fns, strict=True)]
+               for s, fns in zip(self.specs, self._margin_functions(), strict=True)]
         for i, m in enumerate(out):
             self._lowest[m.spec] = min(self._lowest[m.spec], m.margin)
             if np.isfinite(m.margin):

@@ -32,6 +32,27 @@ class _Context:
     #: compiled bound() expressions, per result (so thousands of sets parse each only once)
     cache: dict = field(default_factory=dict, repr=False, compare=False)
 
+    def stacked(self, exprs: tuple[str | sp.Expr, ...]
+                ) -> tuple[list[int], np.ndarray, np.ndarray, list[int]]:
+        """``(rows, D, b, others)``: the indices of the expressions linear in the states,
+        their directions ``a`` then ``-a`` stacked in ``D`` with offsets ``b``, and the
+        indices of the others (cached, so a set's rows are stacked once per result)."""
+        if exprs in self.cache:
+            return self.cache[exprs]
+        rows, others, A, b = [], [], [], []
+        for k, expr in enumerate(exprs):
+            compiled = self.compile(expr)
+            if compiled[0] == "linear":
+                rows.append(k)
+                A.append(compiled[1])
+                b.append(compiled[2])
+            else:
+                others.append(k)
+        D = np.vstack([np.array(A), -np.array(A)]) if rows else np.empty((0, len(self.zsyms)))
+        out = (rows, D, np.array(b), others)
+        self.cache[exprs] = out
+        return out
+
     def compile(self, expr: str | sp.Expr) -> tuple[Any, ...]:
         """``("linear", a, b)`` or ``("interval", f, uses_t)`` for :meth:`ReachSet.bound`."""
         key = expr if isinstance(expr, str) else as_expression(expr)
@@ -104,6 +125,9 @@ class ReachSet:
     _full: Zonotope = field(repr=False)
     _context: _Context = field(repr=False)
     _box: np.ndarray | None = field(default=None, repr=False)
+    _bounded: dict[tuple[Any, ...], np.ndarray] = field(default_factory=dict, repr=False)
+    """:meth:`bound_all`'s answers by expressions: a verdict bounds each set's spec rows
+    while it flows (to stop at the first unproved set) and again over the result."""
 
     def __repr__(self) -> str:
         b = ", ".join(f"[{lo:.6g}, {hi:.6g}]" for lo, hi in self.bounds())
@@ -159,20 +183,18 @@ class ReachSet:
         >>> bool(np.array_equal(rs.bound_all(["T", "2*T + 1"])[1], rs.bound("2*T + 1")))
         True
         """
+        key = tuple(exprs)
+        known = self._bounded.get(key)
+        if known is not None:
+            return known.copy()
         out = np.empty((len(exprs), 2))
-        linear = []
-        for k, expr in enumerate(exprs):
-            compiled = self._context.compile(expr)
-            if compiled[0] == "linear":
-                linear.append((k, compiled[1], compiled[2]))
-            else:
-                out[k] = self.bound(expr)
-        if linear:
-            rows = [k for k, _, _ in linear]
-            A = np.array([a for _, a, _ in linear])
-            b = np.array([b for _, _, b in linear])
-            out[rows] = _linear_bounds(self._full.supports(np.vstack([A, -A])), b)
-        return out
+        rows, directions, b, others = self._context.stacked(key)
+        for k in others:
+            out[k] = self.bound(exprs[k])
+        if rows:
+            out[rows] = _linear_bounds(self._full.supports(directions), b)
+        self._bounded[key] = out
+        return out.copy()
 
     def contains(self, x: Sequence[float] | np.ndarray, tol: float = 1e-9) -> np.ndarray:
         """Whether state(s) ``x`` (rows, model state order) lie in :attr:`set`."""
@@ -210,6 +232,10 @@ class ReachResult:
     stopped_unproved : bool
         The analysis ended at a set that does not prove one of the specs it was
         asked to stop on (``stop_unproved``).
+    unproved_between_steps : bool
+        ``stopped_unproved``, and the sets at both ends of the step of the set it
+        stopped at prove every spec: the failure lies between two step instants, where
+        a smaller step tightens the set.
     too_wide : bool
         Incomplete only because nonlinear modes' sets outgrew their linearisation (a
         smaller step or a split initial set may get further); not when a budget
@@ -243,6 +269,7 @@ class ReachResult:
     t_span: tuple[float, float] = (0.0, 0.0)
     options: ReachOptions = field(default_factory=ReachOptions, repr=False)
     stopped_unproved: bool = False
+    unproved_between_steps: bool = False
     too_wide: bool = False
 
     def __repr__(self) -> str:
@@ -371,5 +398,7 @@ def merge_results(results: Sequence[ReachResult]) -> ReachResult:
         fixpoint=all(r.fixpoint for r in results), time_s=sum(r.time_s for r in results),
         state_names=first.state_names, t_span=first.t_span, options=first.options,
         stopped_unproved=any(r.stopped_unproved for r in results),
+        unproved_between_steps=any(r.stopped_unproved for r in results) and all(
+            r.unproved_between_steps for r in results if r.stopped_unproved),
         too_wide=any(r.too_wide for r in results)
         and all(r.too_wide or r.complete for r in results))

@@ -123,6 +123,10 @@ class Spec:
             return None
         return self.combine_lower(reach_set.bound_all(rows)[:, 0].tolist())
 
+    def lower_from(self, row_bounds: np.ndarray) -> float:
+        """The margin's lower bound from ``(k, 2)`` bounds of this spec's rows."""
+        return self.combine_lower(row_bounds[:, 0].tolist())
+
     def combine_lower(self, row_lower: Sequence[float]) -> float:
         """A lower bound of the margin from lower bounds of its rows.
 
@@ -130,6 +134,37 @@ class Spec:
         the best single separating row (sound, possibly conservative).
         """
         return float(min(row_lower) if self.kind == "all" else max(row_lower))
+
+
+def lowers_on(specs: Sequence[Spec], reach_set: Any) -> list[float | None]:
+    """:meth:`Spec.lower_on` of each spec, the rows of all of them bounded at once.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> compiled = hybridlab.compile_model(hybridlab.load_model("models/thermostat.toml"))
+    >>> result = hybridlab.reach(compiled, initial={"T": (19.0, 21.0)}, t_end=1.0, step=0.1)
+    >>> specs = as_specs(["T <= 25", "cool: T >= 18"], compiled)
+    >>> first = result.sets[0]  # heating: the second spec does not cover it
+    >>> lowers_on(specs, first) == [s.lower_on(first) for s in specs]
+    True
+    >>> lowers_on(specs, first)[1] is None
+    True
+    """
+    exprs: list[Any] = []
+    spans: list[tuple[int, int] | None] = []
+    for spec in specs:
+        rows = spec.rows.get(reach_set.mode)
+        if rows is None:
+            spans.append(None)
+            continue
+        spans.append((len(exprs), len(exprs) + len(rows)))
+        exprs.extend(rows)
+    if not exprs:
+        return [None] * len(specs)
+    bounds = reach_set.bound_all(exprs)
+    return [None if span is None else spec.lower_from(bounds[span[0]:span[1]])
+            for spec, span in zip(specs, spans, strict=True)]
 
 
 def _fail(spec: str, exc: ExpressionError | ModelError) -> SpecError:
