@@ -352,6 +352,13 @@ def test_reach_stops_at_the_first_set_that_does_not_prove_a_spec():
         "stopped at the first set that does not prove spec 'x >= 0.5' (t in [0.68")
     # the flowpipe's bound crosses 0.5 a step before t = ln 2, and the analysis ends there
     assert len(result.sets) == 69 and result.sets[-1].t[1] < math.log(2.0)
+    # the set at the end of that step already holds states below 0.5: not only between steps
+    assert result.stopped_unproved and not result.unproved_between_steps
+    # a margin of 1e-4 at t = 1: the sets at the step instants prove it, the set over the
+    # last step (rounded, with its between-step remainder) does not
+    thin = hybridlab.reach(decay, initial={"x": (1.0, 2.0)}, t_end=1.0, step=0.01,
+                           stop_unproved=as_specs([f"x >= {math.exp(-1.0) - 1e-4!r}"], decay))
+    assert thin.stopped_unproved and thin.unproved_between_steps
     full = hybridlab.reach(decay, initial={"x": (1.0, 2.0)}, t_end=1.0, step=0.01)
     assert full.complete and len(full.sets) == 100
 
@@ -387,6 +394,8 @@ def test_an_unproved_spec_is_refined_by_halving_the_default_step():
     assert verdict.status is VerdictStatus.SAFE, verdict.reason
     assert verdict.reason.endswith("(refined: step=0.0003125)")
     assert verdict.reach.options.step == 1 / 400 / 8 and 0 < verdict.margin < 1e-4
+    # the default step failed only between step instants: refined before any simulation
+    assert verdict.falsification is None
     chosen = check_safety(decay, initial={"x": (1.0, 2.0)}, t_end=1.0, safe=spec,
                           falsify_options=quiet, step=1 / 400)
     assert chosen.status is VerdictStatus.UNKNOWN and "refined" not in chosen.reason
@@ -412,11 +421,12 @@ def test_a_set_too_wide_for_the_linearisation_is_split_until_proved(models_dir):
     kw = {k: v for k, v in vdp.reach_kwargs().items() if k != "step"}
     whole = hybridlab.reach(vdp.model, **{**kw, "t_end": 4.0})
     assert not whole.complete and whole.too_wide  # one set: the remainder blows up
+    # the step is the caller's here, so only the split can prove it
     verdict = check_safety(vdp.model, safe=vdp.safe_specs(), **{**kw, "t_end": 4.0},
-                           falsify_options=FalsifyOptions(samples=0, local_evals=0))
+                           step=0.01, falsify_options=FalsifyOptions(samples=0, local_evals=0))
     assert verdict.status is VerdictStatus.SAFE
     assert "split=2" in verdict.reason
     # an explicit split is the caller's: no other is tried
     kept = check_safety(vdp.model, safe=vdp.safe_specs(), **{**kw, "t_end": 4.0}, split=1,
-                        falsify_options=FalsifyOptions(samples=0, local_evals=0))
+                        step=0.01, falsify_options=FalsifyOptions(samples=0, local_evals=0))
     assert kept.status is VerdictStatus.UNKNOWN and "split=2" not in kept.reason

@@ -47,7 +47,6 @@ import sys
 import time as _time
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -58,12 +57,10 @@ from hybridlab.reachability.nonlinear import FlowStepper, RemainderError
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.result import ReachResult, ReachSet, _Context
 from hybridlab.reachability.sets import Box, SetError, Zonotope
+from hybridlab.reachability.spec import Spec, lowers_on
 from hybridlab.reachability.system import Rows, System
 from hybridlab.simulation.rules import SCHEDULE_SLACK, schedule_index
 from hybridlab.symbolic.intervals import IntervalFunction
-
-if TYPE_CHECKING:
-    from hybridlab.reachability.spec import Spec
 
 __all__ = ["Item", "run_analysis"]
 
@@ -254,9 +251,11 @@ class _Analysis:
         return self.steppers[mode]
 
     def record(self, item: Item, H: Zonotope, t0: float, t1: float,
-               inside: bool = False) -> None:
+               inside: bool = False, ends: tuple[Zonotope, Zonotope | None] | None = None
+               ) -> None:
         """Keep ``H``, the set over ``[t0, t1]`` (``inside``: known to lie within the mode's
-        invariant, so its hull needs no cut)."""
+        invariant, so its hull needs no cut; ``ends``: the sets at ``t0`` and ``t1``, to
+        tell a spec that fails only between the two instants)."""
         full = H
         box = H.bounds()
         rows = self.system.modes[item.mode].invariants
@@ -269,15 +268,17 @@ class _Analysis:
                                        np.minimum(box[:, 1], cut[:, 1])])
         rs = ReachSet(mode=item.mode, t=(float(np.nextafter(t0, -np.inf)),
                                          float(np.nextafter(min(t1, self.t_end), np.inf))),
-                      jumps=item.jumps, set=full.project(range(self.n)), _full=full,
+                      jumps=item.jumps,
+                      set=full if full.dim == self.n else full.project(range(self.n)), _full=full,
                       _context=self.context, _box=box[:self.n])
         self.records.append((item.id, rs))
-        for spec in self.stop_unproved:
-            lower = spec.lower_on(rs)
+        for spec, lower in zip(self.stop_unproved, lowers_on(self.stop_unproved, rs),
+                               strict=True):
             if lower is not None and not spec.holds(lower):
-                raise _Unproved(f"stopped at the first set that does not prove spec "
-                              f"{spec.text!r} (t in [{rs.t[0]:.6g}, {rs.t[1]:.6g}] in mode "
-                              f"{rs.mode!r}, bound {lower:.6g})")
+                raise _Unproved(self._between(item, spec, ends, rs.t),
+                                f"stopped at the first set that does not prove spec "
+                                f"{spec.text!r} (t in [{rs.t[0]:.6g}, {rs.t[1]:.6g}] in mode "
+                                f"{rs.mode!r}, bound {lower:.6g})")
         if len(self.records) > self.options.max_sets:
             raise _Budget(f"max_sets={self.options.max_sets} flowpipe sets computed; the "
                           f"analysis stopped early (raise max_sets or the step)")
@@ -383,7 +384,7 @@ class _Analysis:
             inv = mode.invariants.range(H)
             if inv.size and np.any(inv[:, 1] < 0):
                 break
-            self.record(item, H, t0, t1)
+            self.record(item, H, t0, t1, ends=(P, P_next))
             stop = False
             for tr in guarded:
                 rows = system.guards[tr.index]
@@ -417,6 +418,21 @@ class _Analysis:
         for tr in guarded:
             if clusters[tr.index]:
                 self._jump(item, tr, clusters[tr.index])
+
+    def _between(self, item: Item, spec: Spec, ends: tuple[Zonotope, Zonotope | None] | None,
+                 t: tuple[float, float]) -> bool:
+        """Whether ``spec`` holds on both ``ends``: the sets at the instants that bound
+        the set which failed it (so a smaller step may prove it)."""
+        if ends is None or ends[1] is None:
+            return False
+        for E in ends:
+            assert E is not None
+            rs = ReachSet(mode=item.mode, t=t, jumps=item.jumps, set=E.project(range(self.n)),
+                          _full=E, _context=self.context, _box=E.bounds()[:self.n])
+            lower = spec.lower_on(rs)
+            if lower is None or not spec.holds(lower):
+                return False
+        return True
 
     def _quiet_steps(self, item: Item, stepper: FlowStepper, chain: AffineChain, P: Zonotope,
                      rel: float, now: float, exact_time: bool, guarded,
@@ -710,7 +726,12 @@ class _QuietRun:
 
 
 class _Unproved(_Budget):
-    """A set does not prove one of the specs the analysis was asked to stop on."""
+    """A set does not prove one of the specs the analysis was asked to stop on;
+    ``between``: the sets at both ends of its step prove it."""
+
+    def __init__(self, between: bool, text: str) -> None:
+        super().__init__(text)
+        self.between = between
 
 
 def run_analysis(system: System, options: ReachOptions, mode: str, P0: Zonotope,
@@ -740,12 +761,14 @@ def run_analysis(system: System, options: ReachOptions, mode: str, P0: Zonotope,
     started = _time.perf_counter()
     analysis = _Analysis(system, options, t_start, t_end, p, stop_unproved)
     analysis.push(None, mode, P0, t_start, t_start, 0)
-    stopped = False
+    stopped = between = False
     try:
         analysis.run()
     except _Budget as exc:
         analysis._reason(str(exc))
         stopped = isinstance(exc, _Unproved)
+        between = isinstance(exc, _Unproved) and exc.between
     if analysis.shown:
         print(file=sys.stderr)  # end the progress line
-    return replace(analysis.finish(started), stopped_unproved=stopped)
+    return replace(analysis.finish(started), stopped_unproved=stopped,
+                   unproved_between_steps=between)

@@ -35,7 +35,7 @@ from hybridlab.reachability.falsify import (
     FalsifyOptions,
 )
 from hybridlab.reachability.options import ReachOptions
-from hybridlab.reachability.spec import Avoid, Spec, as_specs
+from hybridlab.reachability.spec import Avoid, Spec, as_specs, lowers_on
 from hybridlab.simulation.executors import check_executor
 from hybridlab.simulation.options import SimulationOptions
 from hybridlab.simulation.problem import HybridProblem
@@ -208,20 +208,19 @@ def bound_specs(specs: Iterable[Spec], reach_result: Any) -> tuple[SpecBound, ..
     >>> round(lower.lower, 4), lower.mode, lower.sets  # only the 11 heating sets
     (1.0, 'heat', 11)
     """
-    out = []
-    for spec in specs:
-        best = SpecBound(spec.text, math.inf)
-        count = 0
-        for rs in reach_result.sets:
-            lower = spec.lower_on(rs)
+    specs = list(specs)
+    best = [SpecBound(spec.text, math.inf) for spec in specs]
+    count = [0] * len(specs)
+    for rs in reach_result.sets:
+        for k, lower in enumerate(lowers_on(specs, rs)):
             if lower is None:
                 continue
-            count += 1
-            if lower < best.lower or best.mode is None and lower == best.lower:
-                best = SpecBound(spec.text, lower, rs.mode,
-                                 (float(rs.t[0]), float(rs.t[1])), int(rs.jumps))
-        out.append(SpecBound(best.spec, best.lower, best.mode, best.t, best.jumps, count))
-    return tuple(out)
+            count[k] += 1
+            if lower < best[k].lower or best[k].mode is None and lower == best[k].lower:
+                best[k] = SpecBound(specs[k].text, lower, rs.mode,
+                                    (float(rs.t[0]), float(rs.t[1])), int(rs.jumps))
+    return tuple(SpecBound(b.spec, b.lower, b.mode, b.t, b.jumps, n)
+                 for b, n in zip(best, count, strict=True))
 
 
 def check(
@@ -361,6 +360,12 @@ def check(
         quick = None
     if quick is not None and quick.proved and quick.result.complete:
         return _safe(quick, problem.t_end, texts, started, None)
+    if quick is not None and not step_chosen and quick.result.unproved_between_steps:
+        # it failed only between two step instants (the sets at both ends prove every
+        # spec): a finer step is tried before any simulation, while that stays so
+        finer = _between_refined(quick, lambda step: attempt({"step": step}, stop=True))
+        if finer.proved and finer.result.complete:
+            return _safe(finer, problem.t_end, texts, started, None)
 
     found = search.sample()
     unsafe = _unsafe(found, texts, started)
@@ -478,6 +483,10 @@ _QUICK_PROOF_S = 1.0
 compiled simulator and a first falsification cost on a small model, so a model proved
 in that time needs no simulation, and one that is not loses at most that."""
 
+_BETWEEN_HALVINGS = 3
+"""Halvings of the step at most before any simulation, while the flowpipe fails only
+between step instants (the spacecraft rendezvous: two)."""
+
 _STEP_PATIENCE = 2
 """Halvings in a row that do not tighten the failing bound before the refinement stops
 (the bound is not monotone in the step: a finer grid meets a guard differently)."""
@@ -526,6 +535,19 @@ class _Attempt:
     def refinement(self) -> str:
         """The reason's note of the refinements this attempt used ("" for none)."""
         return f" (refined: {_describe(self.stage)})" if self.stage else ""
+
+
+def _between_refined(first: _Attempt, attempt: Any) -> _Attempt:
+    """Halve the step of ``first`` while each attempt fails only between step instants
+    and tightens the failing bound, at most ``_BETWEEN_HALVINGS`` times; the last
+    attempt made (``attempt(step)`` runs one, ending at its first unproved set)."""
+    best = first
+    for _ in range(_BETWEEN_HALVINGS):
+        finer = attempt(best.step / 2)
+        if finer.proved or not finer.result.unproved_between_steps or finer.lower <= best.lower:
+            return finer
+        best = finer
+    return best
 
 
 def _describe(stage: dict[str, Any]) -> str:
