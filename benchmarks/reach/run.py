@@ -23,12 +23,14 @@ margin of the counterexample. Times: "whole" is the whole process from its start
 (interpreter, imports, loading; measured by this script around the subprocess, so only
 with ``--timeout`` for hybridlab), "in-process" from the loaded tool to the verdict
 (hybridlab: loading the SpaceEx files and the check; Hylaa: building and running its
-automaton). Nothing here is a test.
+automaton). hybridlab's bytecode is compiled before the runs, as pip compiles an installed
+package's (Hylaa's). Nothing here is a test.
 """
 
 from __future__ import annotations
 
 import argparse
+import compileall
 import json
 import math
 import os
@@ -211,6 +213,10 @@ def main(argv: list[str] | None = None) -> int:
         return _worker(args.worker, args.cfg_step)
     if args.timeout is not None and not (math.isfinite(args.timeout) and args.timeout > 0):
         parser.error("--timeout must be a positive number of seconds")
+    # hybridlab's bytecode compiled first, as pip compiles an installed package's (Hylaa's):
+    # with PYTHONDONTWRITEBYTECODE set, an editable checkout would otherwise be compiled
+    # from source in every process (about 0.2 s of each whole-process time)
+    compileall.compile_dir(ROOT / "hybridlab", quiet=1)
     print(f"reach benchmarks, {time.strftime('%Y-%m-%d')}, {platform.processor() or '?'}, "
           f"Python {platform.python_version()}"
           + ("" if args.timeout is None else f", timeout {args.timeout:g} s per instance")
