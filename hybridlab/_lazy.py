@@ -9,7 +9,7 @@ first access. ``import hybridlab`` therefore costs nothing but this module, and
 
 from __future__ import annotations
 
-import ast
+import functools
 import importlib
 import importlib.util
 import sys
@@ -40,6 +40,8 @@ def type_checking_imports(source: str) -> dict[str, tuple[str, str]]:
     >>> type_checking_imports(text)
     {'c': ('a.b', 'c'), 'e': ('a.b', 'd')}
     """
+    import ast  # read on the first lookup of a lazy name, not on import
+
     names: dict[str, tuple[str, str]] = {}
     for node in ast.parse(source).body:
         if not (isinstance(node, ast.If) and isinstance(node.test, ast.Name)
@@ -80,11 +82,13 @@ def lazy_exports(package: str, init_file: str) -> tuple[Callable[[str], Any],
     >>> hybridlab.model.loads_model is hybridlab.loads_model
     True
     """
-    origins = type_checking_imports(Path(init_file).read_text(encoding="utf-8"))
+    @functools.cache
+    def origins() -> dict[str, tuple[str, str]]:  # the file is read on the first lookup
+        return type_checking_imports(Path(init_file).read_text(encoding="utf-8"))
 
     def __getattr__(name: str) -> Any:
-        if name in origins:
-            module, attribute = origins[name]
+        if name in origins():
+            module, attribute = origins()[name]
             value = getattr(importlib.import_module(module), attribute)
         elif importlib.util.find_spec(f"{package}.{name}") is not None:
             value = importlib.import_module(f"{package}.{name}")  # a subpackage or module
@@ -94,6 +98,6 @@ def lazy_exports(package: str, init_file: str) -> tuple[Callable[[str], Any],
         return value
 
     def __dir__() -> list[str]:
-        return sorted(set(vars(sys.modules[package])) | set(origins))
+        return sorted(set(vars(sys.modules[package])) | set(origins()))
 
     return __getattr__, __dir__

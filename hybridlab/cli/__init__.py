@@ -6,30 +6,20 @@ says why); 4 ``graph --check`` reported a warning or an error; 1 an internal
 error.
 
 Every command module holds ``add_parser(subparsers)``, which defines its
-arguments, and the function that runs it. The command modules import numpy,
-scipy, sympy and the engines inside that function, so ``hybridlab --help``
-loads none of them.
+arguments, and the function that runs it; it imports numpy, scipy, sympy and
+the engines inside that function. Only the module of the command being run is
+imported: the others are listed by name and help line
+(:mod:`hybridlab.cli._commands`), so ``hybridlab --help`` and a command's
+``--help`` load none of the numerical libraries.
 """
 
 from __future__ import annotations
 
-import os
+import importlib
 import sys
-import tempfile
-import traceback
 from collections.abc import Sequence
 
-from hybridlab.cli import (
-    check,
-    flatten,
-    graph,
-    identify,
-    importers,
-    reach,
-    schema,
-    simulate,
-    sweep,
-)
+from hybridlab._lazy import lazy_exports
 from hybridlab.cli._args import (
     EXIT_BUG,
     EXIT_INCOMPLETE,
@@ -40,19 +30,36 @@ from hybridlab.cli._args import (
     Parser,
     UsageError,
 )
+from hybridlab.cli._commands import COMMANDS, command_of
 from hybridlab.errors import HybridlabError, ModelError, SimulationError
 
 __all__ = ["EXIT_BUG", "EXIT_INTERRUPTED", "main"]
 
-#: the commands in the order ``--help`` lists them
-_COMMANDS = (check, simulate, graph, identify, importers, sweep, reach, flatten, schema)
+# the command modules load on first access too (hybridlab.cli.check)
+__getattr__, __dir__ = lazy_exports(__name__, __file__)
 
 
-def _parser() -> Parser:
+def _parser(argv: Sequence[str]) -> Parser:
+    """The parser of ``argv``: every command listed, only the one ``argv`` runs defined.
+
+    Examples
+    --------
+    >>> parser = _parser(["check", "models/thermostat.toml"])
+    >>> parser.parse_args(["check", "models/thermostat.toml"]).run.__module__
+    'hybridlab.cli.check'
+    >>> parser.parse_args(["simulate", "models/thermostat.toml"])
+    Traceback (most recent call last):
+    ...
+    hybridlab.cli._args.UsageError: unrecognized arguments: models/thermostat.toml
+    """
+    running = command_of(argv)
     parser = Parser(prog="hybridlab", description="Model, simulate and verify hybrid automata.")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
-    for command in _COMMANDS:
-        command.add_parser(sub)
+    for command in COMMANDS:
+        if command is running:
+            importlib.import_module(command.module).add_parser(sub)
+        else:  # named in the listing only; its options load when it runs
+            sub.add_parser(command.name, help=command.help)
     return parser
 
 
@@ -67,7 +74,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     0
     """
     try:
-        args = _parser().parse_args(argv)
+        if argv is None:
+            argv = sys.argv[1:]
+        args = _parser(argv).parse_args(argv)
         return int(args.run(args))
     except SystemExit as exc:  # argparse's own exits: --help, --version
         code = exc.code
@@ -98,6 +107,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _write_report(argv: Sequence[str] | None) -> str | None:
     """Write the traceback of the exception being handled to a new file; its path."""
+    import os  # only an internal error needs these
+    import tempfile
+    import traceback
+
     try:
         fd, path = tempfile.mkstemp(prefix="hybridlab-report-", suffix=".txt")
         with os.fdopen(fd, "w", encoding="utf-8") as fh:

@@ -9,6 +9,8 @@ if TYPE_CHECKING:
     from hybridlab.model.schema import Model
 
 from hybridlab.cli._args import EXIT_OK
+from hybridlab.cli._commands import HELP
+from hybridlab.errors import ModelError
 
 __all__ = ["add_parser", "summary"]
 
@@ -36,9 +38,7 @@ def summary(model: Model) -> str:
         stop2: room2.turn_off, heater.release2
     """
     from hybridlab._text import printable
-    from hybridlab.symbolic.compile import compile_model
 
-    compiled = compile_model(model)
     lines = [f"model {model.name!r}: OK"]
     if model.description:
         lines.append(f"  {' '.join(model.description.split())}")
@@ -52,12 +52,7 @@ def summary(model: Model) -> str:
                                                  for name, var in model.discrete.items()))
     lines.append(f"  parameters ({len(model.parameters)}): {', '.join(model.parameters) or '-'}")
     lines.append(f"  modes ({len(model.modes)}), initial {model.initial.mode!r}:")
-    for name, mode in compiled.modes.items():
-        extra = ""
-        if mode.switches:
-            extra = "; discontinuities: " + ", ".join(s.text for s in mode.switches)
-        lines.append(f"    {printable(name)}: {len(mode.outgoing)} outgoing, "
-                     f"{len(mode.invariant_texts)} invariant(s){extra}")
+    lines.extend(_modes(model))
     lines.append(f"  transitions ({len(model.transitions)}):")
     for tr in model.transitions:
         when = " and ".join(tr.guard) or "-"
@@ -71,6 +66,47 @@ def summary(model: Model) -> str:
         lines.append("  scenarios: " + ", ".join(f"{printable(k)} (t_end {v.t_end:g})"
                                                 for k, v in model.scenarios.items()))
     return "\n".join(lines)
+
+
+def _modes(model: Model) -> list[str]:
+    """One line per mode: its outgoing transitions, invariants and the discontinuities of
+    its flow (the switching surfaces the simulator locates).
+
+    The lines come from the checked symbolic model; a mechanics model's equations of
+    motion are derived (which fails on a singular mass matrix), but no numeric code is
+    generated, so numpy is not loaded.
+
+    Examples
+    --------
+    >>> from hybridlab import load_model
+    >>> _modes(load_model("models/friction_oscillator.toml"))
+    ['    move: 0 outgoing, 0 invariant(s); discontinuities: sign(v)']
+    """
+    from hybridlab._text import printable
+    from hybridlab.symbolic.discontinuities import extract_switches
+    from hybridlab.symbolic.lagrange import lagrange_equations, mode_flow
+
+    sym = model.symbolic
+    if sym is None:
+        raise ModelError("model has not been checked")
+    equations = None
+    if sym.mechanics is not None:
+        mech = sym.mechanics
+        equations = lagrange_equations(mech.kinetic, mech.potential,
+                                       [sym.states[i] for i in mech.coordinates],
+                                       [sym.states[i] for i in mech.velocities])
+    lines = []
+    discontinuities: dict[tuple, str] = {}  # by flow: modes of a product often share one
+    for name, mode in sym.modes.items():
+        outgoing = sum(tr.source == name for tr in sym.transitions)
+        flow = mode_flow(sym, name, equations)
+        if flow not in discontinuities:
+            switches = extract_switches(flow, prefix="_sigma")[1]
+            discontinuities[flow] = ("; discontinuities: " + ", ".join(s.text for s in switches)
+                                     if switches else "")
+        lines.append(f"    {printable(name)}: {outgoing} outgoing, "
+                     f"{len(mode.invariants)} invariant(s){discontinuities[flow]}")
+    return lines
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -92,8 +128,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     >>> args.command, args.model, args.run.__name__
     ('check', 'models/thermostat.toml', '_run')
     """
-    p: argparse.ArgumentParser = sub.add_parser("check",
-                                                help="validate a model file and summarise it")
+    p: argparse.ArgumentParser = sub.add_parser("check", help=HELP["check"])
     p.add_argument("model")
     p.set_defaults(run=_run)
     return p

@@ -6,6 +6,7 @@ import argparse
 from typing import Any
 
 from hybridlab.cli._args import emit
+from hybridlab.cli._commands import HELP
 
 __all__ = ["add_parser"]
 
@@ -31,8 +32,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     >>> args.command, args.model, args.out
     ('flatten', 'models/two_rooms.toml', 'flat.toml')
     """
-    p: argparse.ArgumentParser = sub.add_parser(
-        "flatten", help="write a model built from components as one flat model file")
+    p: argparse.ArgumentParser = sub.add_parser("flatten", help=HELP["flatten"])
     p.add_argument("model")
     p.add_argument("-o", "--out", help="the file to write (default: print the model)")
     p.set_defaults(run=_run)

@@ -6,22 +6,26 @@ import argparse
 from typing import Any
 
 from hybridlab.cli._args import EXIT_FINDINGS, EXIT_OK, UsageError, emit
+from hybridlab.cli._commands import HELP
 
 __all__ = ["add_parser"]
 
 
 def _run(args: argparse.Namespace) -> int:
-    from hybridlab.graph import check_mode_graph, to_dot
     from hybridlab.model.loader import load_model
 
     if args.max_cycle_length < 1:
         raise UsageError(f"--max-cycle-length must be at least 1 (got {args.max_cycle_length})")
     model = load_model(args.model)
-    if args.check:
+    if args.check:  # the checks' LP solver (scipy) loads only here
+        from hybridlab.graph import check_mode_graph
+
         report = check_mode_graph(model, scenarios=args.scenario,
                                   max_cycle_length=args.max_cycle_length)
         print(report)
         return EXIT_OK if report.ok else EXIT_FINDINGS
+    from hybridlab.graph import to_dot
+
     text = to_dot(model)
     return emit(text, args.out)
 
@@ -38,8 +42,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     >>> args.model, args.check, args.scenario, args.max_cycle_length
     ('models/thermostat.toml', True, None, 8)
     """
-    p: argparse.ArgumentParser = sub.add_parser(
-        "graph", help="print the mode graph in Graphviz DOT, or check it")
+    p: argparse.ArgumentParser = sub.add_parser("graph", help=HELP["graph"])
     p.add_argument("model")
     p.add_argument("--out", help="write the DOT text to this file")
     p.add_argument("--check", action="store_true",

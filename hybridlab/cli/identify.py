@@ -19,6 +19,7 @@ import contextlib
 from typing import Any
 
 from hybridlab.cli._args import EXIT_OK, finite_number, split_assignment
+from hybridlab.cli._commands import HELP
 
 __all__ = ["add_parser"]
 
@@ -134,7 +135,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     ('_run_friction', 'runs.csv')
     """
     identify: argparse.ArgumentParser = subparsers.add_parser(
-        "identify", help="identify parameters from measured data",
+        "identify", help=HELP["identify"],
         description="Identify parameters from measured data (CSV formats: "
                     "docs/identification.md).")
     sub = identify.add_subparsers(dest="identify_command", metavar="METHOD")

@@ -17,6 +17,7 @@ import argparse
 from typing import Any
 
 from hybridlab.cli._args import emit
+from hybridlab.cli._commands import HELP
 
 __all__ = ["add_parser"]
 
@@ -47,8 +48,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     ('spaceex', 'models/spaceex/bouncing_ball.xml', 'models/spaceex/bouncing_ball.cfg', None,
      False, 'ball.toml')
     """
-    imp: argparse.ArgumentParser = sub.add_parser(
-        "import", help="convert a model from another format to TOML")
+    imp: argparse.ArgumentParser = sub.add_parser("import", help=HELP["import"])
     formats = imp.add_subparsers(dest="format", required=True,
                                  parser_class=type(imp))
     sx = formats.add_parser("spaceex", help="a SpaceEx XML model (and its .cfg)")

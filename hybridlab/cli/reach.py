@@ -27,6 +27,7 @@ from hybridlab.cli._args import (
     require_finite,
     split_assignment,
 )
+from hybridlab.cli._commands import HELP
 from hybridlab.reachability.options import FalsifyOptions
 
 if TYPE_CHECKING:
@@ -208,8 +209,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     (['h=9:10'], 3.0, ['h <= 11'], 2, 1)
     """
     p: argparse.ArgumentParser = sub.add_parser(
-        "reach", help="check safety specs from an initial set: SAFE (proved), "
-                      "UNSAFE (counterexample) or UNKNOWN",
+        "reach", help=HELP["reach"],
         description="Exit codes: 0 SAFE, 1 UNSAFE, 3 UNKNOWN, 2 user error.")
     p.add_argument("model")
     p.add_argument("--init", action="append", metavar="NAME=LO:HI",

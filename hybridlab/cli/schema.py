@@ -7,6 +7,7 @@ import json
 from typing import Any
 
 from hybridlab.cli._args import emit
+from hybridlab.cli._commands import HELP
 
 __all__ = ["add_parser"]
 
@@ -30,8 +31,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     >>> args.command, args.out
     ('schema', 'model.schema.json')
     """
-    p: argparse.ArgumentParser = sub.add_parser("schema",
-                                                help="print the JSON schema of model files")
+    p: argparse.ArgumentParser = sub.add_parser("schema", help=HELP["schema"])
     p.add_argument("--out")
     p.set_defaults(run=_run)
     return p

@@ -14,6 +14,7 @@ from hybridlab.cli._args import (
     assignments,
     require_finite,
 )
+from hybridlab.cli._commands import HELP
 from hybridlab.simulation.options import METHODS
 
 __all__ = ["add_parser"]
@@ -85,7 +86,7 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     >>> args.model, args.t_end, args.set, args.backend, args.zeno
     ('models/bouncing_ball.toml', 2.0, ['e=0.5'], 'reference', None)
     """
-    p: argparse.ArgumentParser = sub.add_parser("simulate", help="simulate a model")
+    p: argparse.ArgumentParser = sub.add_parser("simulate", help=HELP["simulate"])
     p.add_argument("model")
     p.add_argument("--scenario")
     p.add_argument("--t-end", type=float, dest="t_end")

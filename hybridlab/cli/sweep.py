@@ -25,6 +25,7 @@ from hybridlab.cli._args import (
     finite_number,
     split_assignment,
 )
+from hybridlab.cli._commands import HELP
 from hybridlab.ensemble.errors import SweepError
 from hybridlab.simulation.options import METHODS
 
@@ -191,7 +192,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     ('_run', ['e=0.5:0.9:5'])
     """
     p: argparse.ArgumentParser = subparsers.add_parser(
-        "sweep", help="simulate a model over a grid of parameters/initial states, write CSV",
+        "sweep", help=HELP["sweep"],
         description="Simulate a model over a full-factorial grid of parameters and initial "
                     "states, in parallel, and write one CSV row per run (docs/sweeps.md).")
     p.add_argument("model")

@@ -28,7 +28,6 @@ from enum import StrEnum
 
 import numpy as np
 import sympy as sp
-from scipy.optimize import least_squares, linprog
 
 from hybridlab.symbolic.intervals import EmptyInterval, Interval, compile_interval
 from hybridlab.symbolic.printing import PrintError, numpy_function
@@ -146,6 +145,8 @@ def _slack_lp(rows: Sequence[_Affine], variables: Sequence[sp.Symbol],
               bounds: Mapping[sp.Symbol, Interval] | None = None,
               ) -> tuple[float, np.ndarray] | None:
     """Maximise ``s`` subject to ``a_i.v + b_i >= |a_i| s`` and ``s <= 1``: ``(s, v)``."""
+    from scipy.optimize import linprog  # scipy.optimize takes ~0.5 s to import: load on use
+
     index = {v: i for i, v in enumerate(variables)}
     n = len(variables)
     a_ub = np.zeros((len(rows), n + 1))
@@ -184,6 +185,8 @@ def _scale(rows: Sequence[_Affine]) -> float:
 def _bounds(rows: Sequence[_Affine], variables: Sequence[sp.Symbol], of: sp.Symbol,
             tol: float) -> Interval:
     """The range of ``of`` over the affine rows (relaxed by ``tol``)."""
+    from scipy.optimize import linprog  # loaded on use, as in _slack_lp
+
     index = {v: i for i, v in enumerate(variables)}
     a_ub = np.zeros((len(rows), len(variables)))
     b_ub = np.zeros(len(rows))
@@ -249,6 +252,8 @@ class _Search:
 
     def local_point(self, start: Mapping[sp.Symbol, float]) -> dict[sp.Symbol, float] | None:
         """A point found by least squares on the violations of every row, or ``None``."""
+        from scipy.optimize import least_squares  # loaded on use, as in _slack_lp
+
         variables = sorted(set(self.nl_vars) | set(self.affine_vars), key=str)
         try:
             rows = numpy_function([variables], list(self.nonlinear), scalar=True)
