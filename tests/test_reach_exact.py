@@ -139,3 +139,33 @@ def test_initial_sets_as_objects_agree():
     for name in ("x", "v"):
         assert box.bounds[name] == pytest.approx(zono.bounds[name], abs=1e-9)
         assert box.bounds[name] == pytest.approx(poly.bounds[name], abs=1e-6)
+
+
+PUSHED_BLOCK = """
+name = "pushed_block"
+parameters = { c = 1.0 }
+states = { x = 0.0, v = 0.0 }
+[modes.push]
+flow = { x = "v", v = "2*t - c*sign(v)" }
+[initial]
+mode = "push"
+"""
+
+
+def test_coulomb_friction_holds_a_block_until_the_push_exceeds_it_then_it_never_slides_back():
+    # a unit mass under a ramp force 2 t and Coulomb friction c = 1, from rest: it sticks
+    # (v = 0, Filippov sliding on v = 0) until 2 t = c at t = 0.5, then v = (t - 0.5)^2 > 0;
+    # the friction's sign is free only on the surface, where the flow with either sign
+    # points back to it (stick) or away on one side only (break-away)
+    r = reach(hybridlab.loads_model(PUSHED_BLOCK), initial={"x": (0.0, 0.1)}, t_end=1.0,
+              step=0.01)
+    assert r.complete
+    stuck = [s.bounds()[1] for s in r.sets if s.t[1] <= 0.49]
+    assert max(abs(v) for lo_hi in stuck for v in lo_hi) < 1e-8   # held (a free sign: 0.01)
+    assert r.bounds["v"][0] > -1e-8                                # never backwards
+    for s in r.sets:
+        t_lo, t_hi = s.t
+        v_lo, v_hi = s.bounds()[1]
+        exact = [max(0.0, t - 0.5) ** 2 for t in (max(t_lo, 0.0), t_hi)]
+        assert v_lo <= min(exact) + 1e-9 and max(exact) <= v_hi + 1e-9
+    assert 0.25 <= r.bounds["v"][1] < 0.3   # v(1) = 0.25

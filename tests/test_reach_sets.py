@@ -99,6 +99,45 @@ def test_halfspace_intersection_keeps_every_point_that_satisfies_it(Z, a, b):
     assert np.all(cut.contains_points(keep, tol=1e-7))
 
 
+# entries 0 or at least 1e-6 in size: a point sampled from generators near 1e-136 is rounded
+# off Z's slice, which no set operation can contain
+scaled = st.floats(-3, 3).map(lambda v: 0.0 if abs(v) < 1e-6 else v)
+
+
+@st.composite
+def scaled_zonotopes(draw, n=3, max_m=6):
+    m = draw(st.integers(0, max_m))
+    c = np.array(draw(st.lists(finite, min_size=n, max_size=n)))
+    G = np.array(draw(st.lists(scaled, min_size=n * m, max_size=n * m))).reshape(n, m)
+    return Zonotope(c, G)
+
+
+@settings(max_examples=60, deadline=None)
+@given(Z=scaled_zonotopes(), a=st.lists(scaled, min_size=3, max_size=3),
+       pick=st.integers(0, 10_000), width=st.sampled_from([0.0, 1e-3, 0.1, 1.0, 10.0]),
+       side=st.sampled_from(["both", "lo", "hi"]))
+def test_slab_intersection_keeps_every_point_in_the_slab(Z, a, pick, width, side):
+    # slabs around a sampled point, down to the hyperplane through it (a sliding surface)
+    a = np.array(a)
+    pts = _samples(Z, k=400)
+    t = pts @ a
+    span = float(np.ptp(t))
+    t0 = float(t[pick % len(t)])
+    lo, hi = t0 - width * span, t0 + width * span
+    if side == "lo":
+        hi = math.inf
+    elif side == "hi":
+        lo = -math.inf
+    cut = Z.intersect_slab(a, lo, hi)
+    assert cut is not None  # the slab holds the point it was drawn around
+    keep = pts[(t >= lo) & (t <= hi)]
+    assert np.all(cut.contains_points(keep, tol=1e-7))
+    if width == 0.0 and side == "both" and np.any(a != 0):
+        # pinned: never wider along a than the halfspace cuts alone would leave
+        both = Z.intersect_halfspace(a, hi).intersect_halfspace(-a, -lo)
+        assert cut.support(a) + cut.support(-a) <= both.support(a) + both.support(-a) + 1e-9
+
+
 @settings(max_examples=30, deadline=None)
 @given(Z=zonotopes(n=3, max_m=5), a=st.lists(st.floats(-2, 2), min_size=3, max_size=3),
        lo=st.floats(-10, 10), width=st.floats(0, 5), side=st.sampled_from(["both", "lo", "hi"]))

@@ -168,13 +168,17 @@ class FlowStepper:
 
     def _attractive_cut(self, P: Zonotope, P_next: Zonotope, H: Zonotope,
                         signs: np.ndarray) -> tuple[Zonotope, Zonotope]:
-        """Keep a free switching function within its start range when its surface attracts.
+        """Keep a free switching function within its start range on the sides its surface
+        attracts.
 
-        If over the step's box the flow with ``sigma_k = +1`` has ``ds_k/dt <= 0`` and the
-        one with ``sigma_k = -1`` has ``ds_k/dt >= 0``, no Filippov solution can cross the
-        surface or move away from it: ``s_k`` moves monotonically towards 0 and stays there
-        (sliding). So over the step ``s_k`` stays within ``[min(0, s_lo), max(0, s_hi)]`` of
-        the start set, and ``H`` and ``P_next`` are cut to that slab (linear ``s_k`` only).
+        If over the step's box the flow with ``sigma_k = +1`` (the side ``s_k > 0``) has
+        ``ds_k/dt <= 0``, no Filippov solution can rise above ``max(0, s_hi)`` of the start
+        set: above the surface ``s_k`` does not increase, and from the surface it cannot
+        enter that side. Likewise ``sigma_k = -1`` with ``ds_k/dt >= 0`` keeps ``s_k`` above
+        ``min(0, s_lo)``. Both together are sliding (a cart held by friction: ``v`` stays
+        0); one alone is a surface crossed in one direction only (a cart breaking away
+        never moves backwards). ``H`` and ``P_next`` are cut to the half-spaces that hold
+        (linear ``s_k`` only).
         """
         m = self.mode
         free = np.flatnonzero((signs == 0) & m.switches.linear)
@@ -192,21 +196,14 @@ class FlowStepper:
             _, up = self._switch_lie(np.r_[box[:, 0], u_lo], np.r_[box[:, 1], u_hi])
             u_lo[idx] = u_hi[idx] = -1.0
             down, _ = self._switch_lie(np.r_[box[:, 0], u_lo], np.r_[box[:, 1], u_hi])
-            if not (up[k] <= 0 and down[k] >= 0):
+            if not (up[k] <= 0 or down[k] >= 0):
                 continue
             a, b = m.switches.a[k], m.switches.b[k]
-            lo, hi = min(0.0, start[k, 0]), max(0.0, start[k, 1])
-            Z: Zonotope | None
-            for Z_name in ("H", "P_next"):
-                Z = H if Z_name == "H" else P_next
-                Z = Z.intersect_halfspace(a, hi - b)     # a z + b <= hi
-                Z = Z.intersect_halfspace(-a, b - lo) if Z is not None else None
-                if Z is None:  # cannot happen for a sound H; keep the uncut set then
-                    continue
-                if Z_name == "H":
-                    H = Z
-                else:
-                    P_next = Z
+            hi = max(0.0, start[k, 1]) - b if up[k] <= 0 else np.inf     # a z + b <= ...
+            lo = min(0.0, start[k, 0]) - b if down[k] >= 0 else -np.inf  # a z + b >= ...
+            # None cannot happen for a sound H; the uncut set is kept then
+            H = H.intersect_slab(a, lo, hi) or H
+            P_next = P_next.intersect_slab(a, lo, hi) or P_next
         return P_next, H
 
     def _step_with(self, P: Zonotope, r: float, signs: np.ndarray
