@@ -247,10 +247,20 @@ class ModeSystem:
     @cached_property
     def hessian(self) -> IntervalFunction | None:
         """Interval enclosure of every ``d2 f_i / dw_j dw_k``; ``None`` when ``f`` is affine."""
-        entries = [_no_impulses(sp.diff(e, w)) for e in self._jac for w in self.wsyms]
+        jac, ws = self._jac, self.wsyms
+        nz, nw = jac.shape
+        entries: list[sp.Expr] = [sp.Integer(0)] * (nz * nw * nw)
+        for i in range(nz):
+            for j in range(nw):
+                e = jac[i, j]
+                free = e.free_symbols
+                for k in range(j, nw):  # symmetric in j and k: each pair differentiated once
+                    if ws[k] in free:
+                        entries[(i * nw + j) * nw + k] = entries[(i * nw + k) * nw + j] = \
+                            _no_impulses(sp.diff(e, ws[k]))
         if all(e == 0 for e in entries):
             return None
-        return IntervalFunction(entries, self.wsyms)
+        return IntervalFunction(entries, ws)
 
     @cached_property
     def affine(self) -> bool:

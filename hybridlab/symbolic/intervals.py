@@ -10,7 +10,7 @@ plus ``1e-300`` to cover that.
 :class:`IntervalFunction` compiles sympy expressions (everything the model
 grammar allows: ``+ - * / **``, ``sin cos tan asin acos atan atan2 sinh cosh
 tanh exp log sqrt abs sign min max``, ``clip`` through min/max) once into a
-tree of closures and evaluates them over a box.
+list of operations, each distinct subexpression once, and evaluates them over a box.
 
 Two users with two needs: reachability (:class:`IntervalFunction`,
 :func:`interval_eval`) wants every construct enclosed or a clear
@@ -359,7 +359,8 @@ _UNARY: Mapping[type, Callable[[Interval], Interval]] = {
     sp.Heaviside: _heaviside,
 }
 
-Node = Callable[[Sequence[Interval]], Interval]
+Step = Callable[[list[Interval]], Interval]
+"""One operation of a :class:`_Program`: the value of a slot from the slots before it."""
 
 
 def _constant(value: sp.Expr) -> Interval:
@@ -380,66 +381,102 @@ def _general_power(base: Interval, exponent: Interval) -> Interval:
         raise IntervalError(str(exc)) from None
 
 
-def _unary(f: Callable[[Interval], Interval], arg: Node) -> Node:
-    """The node applying ``f`` to the value of ``arg``."""
-    return lambda env: f(arg(env))
+class _Program:
+    """Expressions as one list of operations over slots, each distinct subexpression once.
 
+    Slots ``0 .. n-1`` hold the arguments' intervals; every other slot is one operation
+    on earlier slots. A subexpression shared by several expressions (a Lagrangian flow's
+    ``1/det M(phi)`` in every entry of its Hessian) is evaluated once per call; the
+    operations are those of evaluating each expression's tree, so the enclosures are the
+    same. ``lenient``: what cannot be enclosed is the whole line instead of an error.
+    """
 
-def _compile(expr: sp.Expr, index: Mapping[sp.Symbol, int], lenient: bool = False) -> Node:
-    """A closure enclosing ``expr``; ``lenient``: what it cannot enclose is the whole line."""
-    if lenient and not (expr.is_Symbol or expr.is_Number or expr.is_NumberSymbol
-                        or _supported(expr)):
-        return lambda env: _ENTIRE
-    if expr.is_Symbol:
-        if expr not in index:
-            raise IntervalError(f"no interval given for symbol {expr}")
-        i = index[expr]
-        return lambda env: env[i]
-    if expr.is_Number or expr.is_NumberSymbol:
-        if not expr.is_finite:
-            if lenient:
-                return lambda env: _ENTIRE
-            raise IntervalError(f"non-finite constant {expr}")
-        c = _constant(expr)
-        return lambda env: c
-    args = [_compile(a, index, lenient) for a in expr.args]
-    if isinstance(expr, sp.Add):
-        def add(env: Sequence[Interval]) -> Interval:
-            total = args[0](env)
-            for a in args[1:]:
-                total = total + a(env)
-            return total
-        return add
-    if isinstance(expr, sp.Mul):
-        def mul(env: Sequence[Interval]) -> Interval:
-            total = args[0](env)
-            for a in args[1:]:
-                total = total * a(env)
-            return total
-        return mul
-    if isinstance(expr, sp.Pow):
-        base, exponent = args
-        e = expr.args[1]
-        if e.is_Integer:
-            k = int(e)
-            return lambda env: base(env)._ipow(k)
-        if e == sp.Rational(1, 2):
-            return lambda env: _sqrt(base(env))
-        if e == sp.Rational(-1, 2):
-            return lambda env: _sqrt(base(env)).reciprocal()
-        if e.is_Number:  # a non-integer constant power: real only for a base >= 0
-            return lambda env: base(env) ** exponent(env)
-        return lambda env: _general_power(base(env), exponent(env))
-    if isinstance(expr, sp.Min):
-        return lambda env: _min(*(a(env) for a in args))
-    if isinstance(expr, sp.Max):
-        return lambda env: _max(*(a(env) for a in args))
-    if isinstance(expr, sp.atan2):
-        return lambda env: _atan2(args[0](env), args[1](env))
-    for kind, f in _UNARY.items():
-        if isinstance(expr, kind):
-            return _unary(f, args[0])
-    raise IntervalError(f"interval arithmetic does not support {type(expr).__name__} in {expr}")
+    def __init__(self, index: Mapping[sp.Symbol, int], lenient: bool = False) -> None:
+        self.index = index
+        self.lenient = lenient
+        self.n_args = len(index)
+        self.steps: list[Step] = []
+        self.slots: dict[sp.Expr, int] = {}
+
+    def add(self, expr: sp.Expr) -> int:
+        """The slot holding ``expr``'s enclosure (its operations appended once)."""
+        if expr.is_Symbol and not self.lenient or expr.is_Symbol and expr in self.index:
+            if expr not in self.index:
+                raise IntervalError(f"no interval given for symbol {expr}")
+            return self.index[expr]
+        known = self.slots.get(expr)
+        if known is not None:
+            return known
+        step = self._step(expr)
+        self.steps.append(step)
+        slot = self.n_args + len(self.steps) - 1
+        self.slots[expr] = slot
+        return slot
+
+    def run(self, env: Sequence[Interval]) -> list[Interval]:
+        """Every slot's interval, the arguments ``env`` first."""
+        vals = list(env)
+        for step in self.steps:
+            vals.append(step(vals))
+        return vals
+
+    def _step(self, expr: sp.Expr) -> Step:
+        if self.lenient and not (expr.is_Symbol or expr.is_Number or expr.is_NumberSymbol
+                                 or _supported(expr)):
+            return lambda vals: _ENTIRE
+        if expr.is_Symbol:  # lenient, and not given: the whole line
+            return lambda vals: _ENTIRE
+        if expr.is_Number or expr.is_NumberSymbol:
+            if not expr.is_finite:
+                if self.lenient:
+                    return lambda vals: _ENTIRE
+                raise IntervalError(f"non-finite constant {expr}")
+            c = _constant(expr)
+            return lambda vals: c
+        args = [self.add(a) for a in expr.args]
+        if isinstance(expr, sp.Add):
+            first, rest = args[0], args[1:]
+
+            def add(vals: list[Interval]) -> Interval:
+                total = vals[first]
+                for a in rest:
+                    total = total + vals[a]
+                return total
+            return add
+        if isinstance(expr, sp.Mul):
+            first, rest = args[0], args[1:]
+
+            def mul(vals: list[Interval]) -> Interval:
+                total = vals[first]
+                for a in rest:
+                    total = total * vals[a]
+                return total
+            return mul
+        if isinstance(expr, sp.Pow):
+            base, exponent = args
+            e = expr.args[1]
+            if e.is_Integer:
+                k = int(e)
+                return lambda vals: vals[base]._ipow(k)
+            if e == sp.Rational(1, 2):
+                return lambda vals: _sqrt(vals[base])
+            if e == sp.Rational(-1, 2):
+                return lambda vals: _sqrt(vals[base]).reciprocal()
+            if e.is_Number:  # a non-integer constant power: real only for a base >= 0
+                return lambda vals: vals[base] ** vals[exponent]
+            return lambda vals: _general_power(vals[base], vals[exponent])
+        if isinstance(expr, sp.Min):
+            return lambda vals: _min(*(vals[a] for a in args))
+        if isinstance(expr, sp.Max):
+            return lambda vals: _max(*(vals[a] for a in args))
+        if isinstance(expr, sp.atan2):
+            return lambda vals: _atan2(vals[args[0]], vals[args[1]])
+        for kind, f in _UNARY.items():
+            if isinstance(expr, kind):
+                arg = args[0]
+                return lambda vals: f(vals[arg])
+        raise IntervalError(f"interval arithmetic does not support {type(expr).__name__} "
+                            f"in {expr}")
 
 
 _ENTIRE = Interval.entire()
@@ -471,12 +508,13 @@ class IntervalFunction:
 
     def __init__(self, exprs: Sequence[sp.Expr], symbols: Sequence[sp.Symbol]) -> None:
         self.exprs = tuple(as_expression(e) for e in exprs)
-        index = {s: i for i, s in enumerate(symbols)}
-        self._nodes = [_compile(e, index) for e in self.exprs]
+        self._program = _Program({s: i for i, s in enumerate(symbols)})
+        self._outputs = [self._program.add(e) for e in self.exprs]
 
     def intervals(self, env: Sequence[Interval]) -> list[Interval]:
         """Evaluate on a list of argument intervals."""
-        return [node(env) for node in self._nodes]
+        vals = self._program.run(env)
+        return [vals[k] for k in self._outputs]
 
     def __call__(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Enclosures ``(lo, hi)`` of every expression over the box ``[lo, hi]``."""
@@ -548,11 +586,12 @@ def compile_interval(expr: sp.Expr) -> Callable[[Mapping[sp.Symbol, Interval]], 
     """
     expr = as_expression(expr)
     symbols = sorted(expr.free_symbols, key=str)
-    node = _compile(expr, {s: i for i, s in enumerate(symbols)}, lenient=True)
+    program = _Program({s: i for i, s in enumerate(symbols)}, lenient=True)
+    out = program.add(expr)
 
     def evaluate(box: Mapping[sp.Symbol, Interval]) -> Interval:
         try:
-            return node([box.get(s, _ENTIRE) for s in symbols])
+            return program.run([box.get(s, _ENTIRE) for s in symbols])[out]
         except EmptyInterval:
             raise
         except IntervalError:
