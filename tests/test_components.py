@@ -119,6 +119,70 @@ def test_unique_names_may_be_written_unqualified(
         "room1.on|room2.off|heater.heat1")
 
 
+def test_a_components_unique_mode_may_be_written_without_its_instance(
+        rooms: hybridlab.Model) -> None:
+    # heat1 is the heater's only: it stands for heater.heat1; on is both rooms'
+    assert list(parse_spec("heat1: room1.T <= 23", rooms).rows) == [
+        "room1.on|room2.off|heater.heat1"]
+    assert HybridProblem.build(rooms, t_end=1.0, mode="heat2").mode == (
+        "room1.off|room2.on|heater.heat2")
+    with pytest.raises(ValueError, match="unknown mode"):
+        parse_spec("on: room1.T <= 23", rooms)
+
+
+SHARED = """
+name = "pair"
+qualify = "shared"
+
+[templates.lag]
+parameters = { k = 1.0 }
+inputs = ["u"]
+states = { y = 0.0 }
+modes.run.flow = { y = "k*(u - y)" }
+initial.mode = "run"
+
+[templates.source]
+parameters = { level = 2.0 }
+states = { s = 0.0 }
+definitions = { out = "level + s" }
+modes.low.flow = { s = "0" }
+modes.high.flow = { s = "0" }
+initial.mode = "low"
+
+[[templates.source.transitions]]
+name = "raise"
+source = "low"
+target = "high"
+guard = "t >= 1"
+reset = { s = "1" }
+
+[instances.a]
+template = "lag"
+connect = { u = "src.out" }
+
+[instances.b]
+template = "lag"
+connect = { u = "a.y" }
+
+[instances.src]
+template = "source"
+"""
+
+
+def test_shared_qualification_keeps_the_names_one_instance_declares() -> None:
+    model = loads_model(SHARED)
+    # y and k are declared by both lags; s, level, out and raise by the source only
+    assert model.state_names == ("a.y", "b.y", "s")
+    assert model.parameter_names == ("a.k", "b.k", "level")
+    assert model.modes["a.run|b.run|src.low"].flow["a.y"] == "a.k*(out - a.y)"
+    assert [tr.name for tr in model.transitions] == ["raise"]
+    result = hybridlab.simulate(model, t_end=2.0, backend="reference")
+    assert [(e.t, e.transition, e.target) for e in result.jumps] == [
+        (1.0, "raise", "a.run|b.run|src.high")]
+    assert loads_model(SHARED.replace('qualify = "shared"', "")).state_names == (
+        "a.y", "b.y", "src.s")
+
+
 def test_check_shows_the_network(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["check", str(MODELS / "two_rooms.toml")]) == 0
     out = capsys.readouterr().out

@@ -634,7 +634,7 @@ def test_schema_describes_the_top_level_keys() -> None:
     assert flat["additionalProperties"] is False
     network = schema["$defs"]["Network"]
     assert set(network["properties"]) == {"name", "description", "imports", "templates",
-                                          "instances", "scenarios"}
+                                          "instances", "scenarios", "qualify"}
     for name in ("Network", "Template", "Instance", "SyncTransition"):
         assert schema["$defs"][name]["additionalProperties"] is False
     for name in ("Parameter", "State", "Mode", "Transition", "Schedule", "Initial", "Scenario"):

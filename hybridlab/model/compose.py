@@ -1,7 +1,9 @@
 """The product of a network of components: one flat model in qualified names.
 
-Every instance's parameters, states and definitions are renamed ``instance.name``; an
-input is replaced by the variable it is connected to; the product's modes are every
+Every instance's parameters, states and definitions are renamed ``instance.name`` (with
+``qualify = "shared"`` only the names several instances declare; the others, and the
+transitions whose names one template declares, keep their own); an input is replaced by
+the variable it is connected to; the product's modes are every
 combination of the components' modes, named ``instance.mode|instance.mode|...``; each
 unlabelled transition of a component is a transition of the product
 (``instance.transition``), and the transitions that share a synchronisation label fire
@@ -15,6 +17,7 @@ from __future__ import annotations
 import graphlib
 import itertools
 import math
+from collections import Counter
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -193,6 +196,7 @@ class _Builder:
         self.templates = templates
         self.source = source
         self.parts: dict[str, _Part] = {}
+        self.short: set[str] = set()  # transitions named as declared in the product
 
     def fail(self, message: str, key: str, token: str = "") -> ModelError:
         return _fail(message, key, token, self.source)
@@ -237,6 +241,18 @@ class _Builder:
         names = {n: f"{name}.{n}" for n in own}
         return _Part(name, t, tpl, names)
 
+    def unqualify(self) -> None:
+        """``qualify = "shared"``: the names only one instance declares keep their own."""
+        if self.network.qualify == "always":
+            return
+        owners = Counter(n for part in self.parts.values() for n in part.names)
+        for part in self.parts.values():
+            part.names.update({n: n for n in part.names if owners[n] == 1})
+        transitions = Counter(tr.name for part in self.parts.values()
+                              for tr in part.tpl.transitions)
+        self.short = {tr.name for part in self.parts.values() for tr in part.tpl.transitions
+                      if transitions[tr.name] == 1}
+
     def connect(self) -> None:
         """Check every connection's target and map each input to it."""
         for name, inst in self.network.instances.items():
@@ -256,7 +272,7 @@ class _Builder:
                                     f"{self.parts[other].template_name!r} of {other!r} has no "
                                     f"state, parameter or definition {var!r} ({where})",
                                     key, target)
-                part.names[i] = target
+                part.names[i] = self.parts[other].names[var]
 
     def instantaneous_cycles(self) -> None:
         """Reject connections through definitions that read each other in a cycle."""
@@ -265,11 +281,11 @@ class _Builder:
         for name, part in self.parts.items():
             inputs = set(part.tpl.inputs)
             for d, text in part.tpl.definitions.items():
-                node = f"{name}.{d}"
+                node = part.names[d]
                 uses[node] = set()
                 for used in names_in(text):
                     if used in part.tpl.definitions:
-                        uses[node].add(f"{name}.{used}")
+                        uses[node].add(part.names[used])
                     elif used in inputs:
                         target = part.names[used]
                         uses[node].add(target)
@@ -292,6 +308,7 @@ class _Builder:
             raise self.fail("a model needs at least one instance", "instances")
         for name, inst in net.instances.items():
             self.parts[name] = self.instance(name, inst)
+        self.unqualify()
         self.connect()
         self.instantaneous_cycles()
         parts = list(self.parts.values())
@@ -413,7 +430,8 @@ class _Builder:
     def joint(self, label: str | None, members: list[tuple[_Part, SyncTransition]]
               ) -> dict[str, Any]:
         """One product transition: a component's own, or the members of a label's event."""
-        names = [f"{p.name}.{tr.name}" for p, tr in members]
+        names = [tr.name if tr.name in self.short else f"{p.name}.{tr.name}"
+                 for p, tr in members]
         name = names[0] if label is None else f"{label}({', '.join(names)})"
         choices = [[p.mode(s) for s in sources] for p, tr in members
                    if (sources := _sources(tr)) is not None]

@@ -7,7 +7,8 @@ declaration order. The rules here are read by the meaning checks and by the plac
 take names from users (calls, the command line, safety specs):
 
 - a qualified name whose last part is unique in the model may also be written without
-  its qualifier (:func:`aliases`);
+  its qualifier (:func:`aliases`, :func:`resolve`), and so may a component's mode in a
+  pattern of product modes (:func:`match_modes`);
 - a transition's ``source`` may name some components' modes only
   (``"room1.off|heater.idle"`` stands for every product mode with those parts), and its
   ``target`` names the components that change (:func:`mode_target`).
@@ -18,7 +19,8 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Iterable, Sequence
 
-__all__ = ["SEPARATOR", "aliases", "match_modes", "mode_parts", "mode_target", "spellings"]
+__all__ = ["SEPARATOR", "aliases", "match_modes", "mode_parts", "mode_target", "resolve",
+           "spellings"]
 
 #: Joins the components' modes in the name of a product mode.
 SEPARATOR = "|"
@@ -75,6 +77,9 @@ def match_modes(pattern: str, modes: Sequence[str]) -> list[str]:
     """The modes that ``pattern`` stands for: itself if it is a mode, else every product
     mode that has each of its parts.
 
+    A part may leave out its instance when its name is the mode of one component only
+    (``hold`` for ``logic.hold``), as a unique variable name may (:func:`aliases`).
+
     Examples
     --------
     >>> modes = ["a.on|b.on", "a.on|b.off", "a.off|b.on", "a.off|b.off"]
@@ -82,13 +87,34 @@ def match_modes(pattern: str, modes: Sequence[str]) -> list[str]:
     (['a.on|b.on', 'a.on|b.off'], ['a.off|b.off'])
     >>> match_modes("fall", ["fall"]), match_modes("rise", ["fall"])
     (['fall'], [])
+    >>> match_modes("hold", ["a.run|b.hold", "a.run|b.move"])
+    ['a.run|b.hold']
+    >>> match_modes("on", modes)  # a mode of both components: qualify it
+    []
     """
     if pattern in modes:
         return [pattern]
-    wanted = set(pattern.split(SEPARATOR))
-    if not all("." in part for part in wanted):
-        return []
+    parts = {part for mode in modes for part in mode.split(SEPARATOR) if "." in part}
+    wanted = set()
+    for part in pattern.split(SEPARATOR):
+        same = [part] if part in parts else spellings(part, sorted(parts))
+        if len(same) != 1:
+            return []
+        wanted.add(same[0])
     return [mode for mode in modes if wanted <= set(mode.split(SEPARATOR))]
+
+
+def resolve(name: str, names: Iterable[str]) -> str:
+    """The name in ``names`` that ``name`` means: itself, or the qualified name it is the
+    unique unqualified spelling of (:func:`aliases`); else ``name`` unchanged.
+
+    Examples
+    --------
+    >>> resolve("s1_on", ["sensors.s1_on", "logic.stop"]), resolve("T", ["a.T", "b.T"])
+    ('sensors.s1_on', 'T')
+    """
+    names = list(names)
+    return name if name in names else aliases(names).get(name, name)
 
 
 def mode_target(source: str, target: str) -> str:

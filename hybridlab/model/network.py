@@ -8,7 +8,7 @@ classes only describe the file; the checks of meaning run when the product is bu
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Literal
 
 from pydantic import Field
 
@@ -96,6 +96,11 @@ class Instance(_Frozen):
 class Network(_Frozen):
     """A model file built from components, or a component library (no instances).
 
+    ``qualify`` says how the product names the components' variables and transitions:
+    ``"always"`` as ``instance.name``; ``"shared"`` only the names that several
+    instances declare, the others as declared (a flat model split into components
+    keeps its names). Product modes are always ``instance.mode|...``.
+
     Examples
     --------
     >>> Network(name="lib", templates={"room": Template(
@@ -106,6 +111,9 @@ class Network(_Frozen):
 
     name: Annotated[str, Field(min_length=1)]
     description: str = ""
+    qualify: Literal["always", "shared"] = Field(
+        "always", description="always: every name of a component is instance.name; shared: "
+                              "only the names that several instances declare")
     imports: list[str] = Field(default_factory=list)
     templates: dict[str, Template] = Field(default_factory=dict)
     instances: dict[str, Instance] = Field(default_factory=dict)
