@@ -30,6 +30,7 @@ import scipy_trolley
 from common import Report, run_main, time_call, time_calls
 
 import hybridlab
+from hybridlab.model.names import match_modes
 from hybridlab.simulation.compiled.backend import prepare
 from hybridlab.simulation.compiled.integrate import (
     METHOD_CODES,
@@ -94,7 +95,8 @@ def _steps(model_address, ints, mode, x0, p, n_sig, sliding, count, method, rtol
 
 def _steps_by_sliding(result: hybridlab.SimulationResult, n_sig: int) -> Counter:
     """The run's steps counted by the switches sliding in them (a tuple of 0/1 per switch)."""
-    switches = [s.text for s in result.compiled.modes["hold"].switches]
+    [hold] = match_modes("hold", list(result.compiled.modes))
+    switches = [s.text for s in result.compiled.modes[hold].switches]
     intervals: list[tuple[int, float, float]] = []
     started: dict[int, float] = {}
     for e in result.events:
@@ -118,7 +120,7 @@ def run(repeat: int) -> Report:
     compiled = hybridlab.compile_model(hybridlab.load_model("models/trolley.toml"))
     prep = prepare(compiled)
     method = METHOD_CODES[TOL["method"]]
-    hold = prep.mode_names.index("hold")
+    hold = prep.mode_names.index(match_modes("hold", list(prep.mode_names))[0])
     report = Report("kernel_floor", "The integration alone against the whole compiled run")
     rows = []
     for label, runs, scipy_runs, repeated in _jobs():

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import hybridlab
+from hybridlab.model.names import match_modes
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
 sys.path.insert(0, str(BENCH))
@@ -29,7 +30,8 @@ def compiled() -> hybridlab.CompiledModel:
 
 def test_hand_derived_flow_equals_hybridlab_flow(compiled):
     tr = scipy_trolley.Trolley.from_model("free_drop")
-    mode = compiled.modes["hold"]
+    [hold] = match_modes("hold", list(compiled.modes))  # the product mode with logic.hold
+    mode = compiled.modes[hold]
     names = compiled.state_names
     p = compiled.parameter_vector(compiled.model.scenarios["free_drop"].parameters)
     rng = np.random.default_rng(7)

@@ -18,6 +18,7 @@ from hypothesis import strategies as st
 from scipy.integrate import DOP853, RK23, RK45, Radau
 
 import hybridlab
+from hybridlab.model.names import match_modes
 from hybridlab.simulation.interpolant import dense_slope
 
 numba = pytest.importorskip("numba")
@@ -62,7 +63,7 @@ def test_active_states_of_the_trolley(models_dir):
     pointer, listed = active_states(compiled)
     names = compiled.state_names
     modes = list(compiled.modes)
-    hold = modes.index("hold")
+    hold = modes.index(match_modes("hold", modes)[0])  # the product mode with logic.hold
     active = {names[i] for i in listed[pointer[hold]:pointer[hold + 1]]}
     # the mechanics, the velocity-loop integrator and the segment clock; the twelve
     # sampled, recorded and sensor states only change at jumps

@@ -10,6 +10,7 @@ import sympy as sp
 
 import hybridlab
 from hybridlab.analysis import count_crossings, step_metrics
+from hybridlab.model.names import match_modes
 from hybridlab.symbolic.lagrange import lagrange_equations
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -18,6 +19,12 @@ ROOT = Path(__file__).resolve().parents[1]
 @pytest.fixture(scope="module")
 def trolley():
     return hybridlab.compile_model(hybridlab.load_model(ROOT / "models" / "trolley.toml"))
+
+
+def hold(compiled: hybridlab.CompiledModel) -> str:
+    """The product mode in which the manoeuvre logic holds the set point."""
+    [mode] = match_modes("hold", list(compiled.modes))
+    return mode
 
 
 def test_point_mass_pendulum_on_a_cart_gives_the_papers_eqs_9_and_10():
@@ -78,7 +85,7 @@ def test_stop_and_return_ends_within_half_a_millimetre_of_the_recorded_position(
     tip = result.observe("x_tip - p_1 + w", [stop.t])[0]
     assert abs(tip) < 1e-9
     assert abs(result.final.state["x"] - stop.post["x_e"]) < 0.5e-3
-    assert result.final.mode == "hold"
+    assert result.final.mode == hold(trolley)
 
 
 @pytest.mark.parametrize(("phi0", "moves"), [(0.004, False), (0.007, True)])
@@ -122,12 +129,12 @@ def test_profiles_reach_the_target_distance(trolley):
     second = hybridlab.simulate(trolley, scenario="tracking")
     fourth = hybridlab.simulate(trolley, scenario="jerk_limited")
     for result in (second, fourth):
-        assert result.final.mode == "hold"
+        assert result.final.mode == hold(trolley)
         assert result.final.state["x_s"] == pytest.approx(0.3, abs=1e-9)
         assert result.final.state["x"] == pytest.approx(0.3, abs=1e-4)
-    modes = [m for _, _, m in fourth.mode_trace() if m.startswith("p4")]
+    modes = [m for _, _, m in fourth.mode_trace() if "logic.p4" in m]
     visited = [m for i, m in enumerate(modes) if i == 0 or m != modes[i - 1]]
-    assert visited == [f"p4_{k}" for k in range(1, 8)]
+    assert visited == [m for k in range(1, 8) for m in match_modes(f"p4_{k}", list(trolley.modes))]
 
 
 def test_sensor_latency_delays_the_stop_by_exactly_the_latency(trolley):
@@ -138,3 +145,20 @@ def test_sensor_latency_delays_the_stop_by_exactly_the_latency(trolley):
     assert stop.t - detect.t == pytest.approx(latency, abs=1e-12)
     # the recorded position is the cart's position when the delayed event arrives
     assert stop.post["x_e"] == stop.pre["x"] > detect.pre["x"]
+
+
+def test_the_components_give_the_events_of_the_flat_model(trolley):
+    # tests/data/trolley_flat.toml: the same model written by hand as one automaton
+    flat = hybridlab.load_model(ROOT / "tests" / "data" / "trolley_flat.toml")
+    assert trolley.model.network is not None and flat.network is None
+    assert len(trolley.model.states) == len(flat.states) == 6  # integrated states
+    runs = [hybridlab.simulate(m, t_end=2.5) for m in (trolley, flat)]
+    composed, written = ([(e.t, e.transition, e.source, e.target) for e in r.jumps]
+                         for r in runs)
+    assert len(composed) == len(written) > 20
+    assert [e[1] for e in composed] == [e[1] for e in written]
+    assert "arrive" in [e[1] for e in composed]
+    for ours, theirs in zip(composed, written, strict=True):
+        assert abs(ours[0] - theirs[0]) <= 1e-10
+        assert match_modes(theirs[2], [ours[2]]) == [ours[2]]
+        assert match_modes(theirs[3], [ours[3]]) == [ours[3]]
