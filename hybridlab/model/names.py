@@ -7,7 +7,7 @@ declaration order. The rules here are read by the meaning checks and by the plac
 take names from users (calls, the command line, safety specs):
 
 - a qualified name whose last part is unique in the model may also be written without
-  its qualifier (:func:`aliases`, :func:`resolve`), and so may a component's mode in a
+  its qualifier (:func:`aliases`), and so may a component's mode in a
   pattern of product modes (:func:`match_modes`);
 - a transition's ``source`` may name some components' modes only
   (``"room1.off|heater.idle"`` stands for every product mode with those parts), and its
@@ -19,8 +19,7 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Iterable, Sequence
 
-__all__ = ["SEPARATOR", "aliases", "match_modes", "mode_parts", "mode_target", "resolve",
-           "spellings"]
+__all__ = ["SEPARATOR", "aliases", "match_modes", "mode_parts", "mode_target", "spellings"]
 
 #: Joins the components' modes in the name of a product mode.
 SEPARATOR = "|"
@@ -102,19 +101,6 @@ def match_modes(pattern: str, modes: Sequence[str]) -> list[str]:
             return []
         wanted.add(same[0])
     return [mode for mode in modes if wanted <= set(mode.split(SEPARATOR))]
-
-
-def resolve(name: str, names: Iterable[str]) -> str:
-    """The name in ``names`` that ``name`` means: itself, or the qualified name it is the
-    unique unqualified spelling of (:func:`aliases`); else ``name`` unchanged.
-
-    Examples
-    --------
-    >>> resolve("s1_on", ["sensors.s1_on", "logic.stop"]), resolve("T", ["a.T", "b.T"])
-    ('sensors.s1_on', 'T')
-    """
-    names = list(names)
-    return name if name in names else aliases(names).get(name, name)
 
 
 def mode_target(source: str, target: str) -> str:
