@@ -92,6 +92,11 @@ def test_platoon_imports_its_vehicles_and_reads_the_car_ahead() -> None:
     assert gap.min() > 9.0
 
 
+def test_platoon_and_its_hand_written_product_have_the_same_events() -> None:
+    _same_events(_events(load_model(MODELS / "platoon.toml"), 60.0),
+                 _events(load_model(MODELS / "platoon_flat.toml"), 60.0))
+
+
 # ----------------------------------------------------------------------------------------
 # names: qualified, and unqualified where unique
 
