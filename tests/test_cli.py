@@ -64,6 +64,20 @@ def test_check_thermostat(capsys: pytest.CaptureFixture[str]) -> None:
     assert "    turn_on: cool -> heat when T <= T_low" in out.splitlines()
 
 
+def test_check_derives_the_mechanics(capsys: pytest.CaptureFixture[str],
+                                     tmp_path: Path) -> None:
+    """``check`` generates no numeric code but still derives the equations of motion."""
+    model = tmp_path / "singular.toml"
+    model.write_text('name = "singular"\nstates = { x = 0.0, u = 0.0 }\n'
+                     'modes.move = {}\ninitial.mode = "move"\n[mechanics]\n'
+                     'coordinates = ["x"]\nvelocities = ["u"]\nkinetic = "x**2/2"\n'
+                     'potential = "0"\n')
+    code, out, err = run(capsys, "check", str(model))
+    assert (code, out) == (2, "")
+    assert err == ("hybridlab: error: mechanics: the mass matrix d2T/du2 is singular; check "
+                   "that the kinetic energy involves every velocity\n")
+
+
 # ----------------------------------------------------------------------------------------
 # simulate
 

@@ -47,7 +47,7 @@ def _parser(argv: Sequence[str]) -> Parser:
     >>> parser = _parser(["check", "models/thermostat.toml"])
     >>> parser.parse_args(["check", "models/thermostat.toml"]).run.__module__
     'hybridlab.cli.check'
-    >>> parser.parse_args(["simulate", "models/thermostat.toml"])
+    >>> parser.parse_args(["simulate", "models/thermostat.toml"])  # listed, options not loaded
     Traceback (most recent call last):
     ...
     hybridlab.cli._args.UsageError: unrecognized arguments: models/thermostat.toml
