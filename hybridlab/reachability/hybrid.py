@@ -423,10 +423,11 @@ class _Analysis:
                  t: tuple[float, float]) -> bool:
         """Whether ``spec`` holds on both ``ends``: the sets at the instants that bound
         the set which failed it (so a smaller step may prove it)."""
-        if ends is None or ends[1] is None:
+        if ends is None:
             return False
         for E in ends:
-            assert E is not None
+            if E is None:  # the step's end set left the mode: no instant to compare with
+                return False
             rs = ReachSet(mode=item.mode, t=t, jumps=item.jumps, set=E.project(range(self.n)),
                           _full=E, _context=self.context, _box=E.bounds()[:self.n])
             lower = spec.lower_on(rs)

@@ -121,7 +121,7 @@ class Spec:
         rows = self.rows.get(reach_set.mode)
         if rows is None:
             return None
-        return self.combine_lower(reach_set.bound_all(rows)[:, 0].tolist())
+        return self.lower_from(reach_set.bound_all(rows))
 
     def lower_from(self, row_bounds: np.ndarray) -> float:
         """The margin's lower bound from ``(k, 2)`` bounds of this spec's rows."""
