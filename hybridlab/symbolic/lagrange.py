@@ -105,12 +105,36 @@ def lagrange_equations(kinetic: sp.Expr, potential: sp.Expr, coordinates: Sequen
         raise CompilationError("the kinetic energy must not depend on the forces")
     accelerations: tuple[sp.Expr, ...] = ()
     if solve:
-        det = sp.simplify(mass.det())
-        if det == 0:
+        if _singular(mass.det()):
             raise CompilationError("mechanics: the mass matrix d2T/du2 is singular; check that "
                                    "the kinetic energy involves every velocity")
         accelerations = tuple(mass.LUsolve(rhs))
     return LagrangeEquations(mass, rhs, accelerations, forces)
+
+
+def _singular(det: sp.Expr) -> bool:
+    """Whether a mass matrix's determinant is identically zero.
+
+    It is not when it is nonzero at one point: every symbol is given a distinct rational
+    value and the determinant evaluated to 30 and to 60 digits; two values that agree to ten
+    digits are the value, not rounding noise of a cancellation. Only when they do not (or
+    the value is zero) is the determinant simplified, which for a Lagrangian in
+    trigonometric coordinates can take seconds.
+
+    Examples
+    --------
+    >>> a, b = sp.symbols("a b", positive=True)
+    >>> _singular(a*b*sp.cos(a)**2 + a*b*sp.sin(a)**2), _singular(sp.cos(a)**2 + sp.sin(a)**2 - 1)
+    (False, True)
+    """
+    symbols = sorted(det.free_symbols, key=str)
+    point = {s: sp.Rational(2 * k + 3, 7 * k + 11) for k, s in enumerate(symbols)}
+    at = det.xreplace(point)
+    coarse, fine = at.evalf(30), at.evalf(60)
+    if fine.is_number and fine.is_finite and fine != 0 and coarse.is_number \
+            and abs(coarse - fine) <= sp.Float("1e-10", 60) * abs(fine):
+        return False
+    return bool(sp.simplify(det) == 0)
 
 
 def mode_flow(sym: SymbolicModel, mode_name: str,
