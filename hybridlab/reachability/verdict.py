@@ -2,7 +2,9 @@
 
 :func:`check` first tries a quick proof: the flowpipes at the default step, ended at
 the first set that does not prove every spec or after a second; a proof needs no
-simulation, so a small model is proved before the simulator would have loaded.
+simulation, so a small model is proved before the simulator would have loaded. When that
+set fails a spec only between two step instants (the sets at both ends of its step prove
+every spec), the step is halved, still before any simulation, while that stays so.
 Otherwise falsification by simulation from the centre, corners and samples of the
 initial set (:mod:`hybridlab.reachability.falsify`) runs; a violation found there
 is a concrete trajectory, so the verdict is UNSAFE. Otherwise the flowpipes of
