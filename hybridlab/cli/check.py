@@ -84,17 +84,12 @@ def _modes(model: Model) -> list[str]:
     """
     from hybridlab._text import printable
     from hybridlab.symbolic.discontinuities import extract_switches
-    from hybridlab.symbolic.lagrange import lagrange_equations, mode_flow
+    from hybridlab.symbolic.lagrange import mode_flow, model_equations
 
     sym = model.symbolic
     if sym is None:
         raise ModelError("model has not been checked")
-    equations = None
-    if sym.mechanics is not None:
-        mech = sym.mechanics
-        equations = lagrange_equations(mech.kinetic, mech.potential,
-                                       [sym.states[i] for i in mech.coordinates],
-                                       [sym.states[i] for i in mech.velocities])
+    equations = model_equations(sym)
     lines = []
     discontinuities: dict[tuple, str] = {}  # by flow: modes of a product often share one
     for name, mode in sym.modes.items():

@@ -33,7 +33,7 @@ from hybridlab.symbolic.compile import CompiledModel
 from hybridlab.symbolic.discontinuities import extract_switches
 from hybridlab.symbolic.functions import _no_impulses
 from hybridlab.symbolic.intervals import IntervalFunction
-from hybridlab.symbolic.lagrange import lagrange_equations, mode_flow
+from hybridlab.symbolic.lagrange import mode_flow, model_equations
 from hybridlab.symbolic.printing import numpy_function
 
 __all__ = ["Rows", "ModeSystem", "ResetMap", "System", "build_system"]
@@ -350,12 +350,7 @@ def build_system(compiled: CompiledModel, values: np.ndarray,
     fixed = {pmap[n]: float(v) for n, v in zip(sym.parameter_names, values, strict=True)
              if n not in uncertain and n not in inputs}
     usyms_in = tuple(pmap[n] for n in inputs)
-    equations = None
-    if sym.mechanics is not None:
-        mech = sym.mechanics
-        equations = lagrange_equations(mech.kinetic, mech.potential,
-                                       [sym.states[i] for i in mech.coordinates],
-                                       [sym.states[i] for i in mech.velocities])
+    equations = model_equations(sym)
 
     def subs(e: sp.Expr) -> sp.Expr:
         # as_expression again: an expression that is one fixed parameter (a reset

@@ -14,7 +14,7 @@ from hybridlab.model.discrete import value_problem
 from hybridlab.model.schema import Model
 from hybridlab.symbolic.discontinuities import Switch, extract_switches
 from hybridlab.symbolic.functions import LazyMatrixFunction, MatrixFunction, VectorFunction
-from hybridlab.symbolic.lagrange import LagrangeEquations, lagrange_equations, mode_flow
+from hybridlab.symbolic.lagrange import LagrangeEquations, mode_flow, model_equations
 
 __all__ = ["ScalarFields", "CompiledMode", "CompiledTransition", "CompiledModel", "compile_model"]
 
@@ -382,12 +382,7 @@ def compile_model(model: Model) -> CompiledModel:
         raise ModelError("model has not been checked")
     cache: dict = {}
     transitions = tuple(_compile_transition(sym, i, cache) for i in range(len(sym.transitions)))
-    equations = None
-    if sym.mechanics is not None:
-        mech = sym.mechanics
-        equations = lagrange_equations(mech.kinetic, mech.potential,
-                                       [sym.states[i] for i in mech.coordinates],
-                                       [sym.states[i] for i in mech.velocities])
+    equations = model_equations(sym)
     modes = {}
     for name in sym.modes:
         compiled = _compile_mode(sym, name, equations, cache)

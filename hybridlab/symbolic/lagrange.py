@@ -137,6 +137,36 @@ def _singular(det: sp.Expr) -> bool:
     return bool(sp.simplify(det) == 0)
 
 
+def model_equations(sym: SymbolicModel) -> LagrangeEquations | None:
+    """The equations of motion of a model's ``[mechanics]`` (``None`` without one).
+
+    Examples
+    --------
+    >>> from hybridlab.model.loader import loads_model
+    >>> sym = loads_model('''
+    ... name = "pendulum"
+    ... parameters = { m = 1.0, l = 0.5, g = 9.81 }
+    ... states = { phi = 0.1, omega = 0.0 }
+    ... [mechanics]
+    ... coordinates = ["phi"]
+    ... velocities = ["omega"]
+    ... kinetic = "m*l**2*omega**2/2"
+    ... potential = "-m*g*l*cos(phi)"
+    ... [modes.swing]
+    ... [initial]
+    ... mode = "swing"
+    ... ''').symbolic
+    >>> sp.expand(model_equations(sym).accelerations[0])
+    _Q0/(l**2*m) - g*sin(phi)/l
+    """
+    mech = sym.mechanics
+    if mech is None:
+        return None
+    return lagrange_equations(mech.kinetic, mech.potential,
+                              [sym.states[i] for i in mech.coordinates],
+                              [sym.states[i] for i in mech.velocities])
+
+
 def mode_flow(sym: SymbolicModel, mode_name: str,
               equations: LagrangeEquations | None) -> tuple[sp.Expr, ...]:
     """The full flow of a mode: its own expressions plus the derived mechanics.
