@@ -38,11 +38,12 @@ import numpy as np
 
 from hybridlab.reachability.chain import AffineChain, Ahead
 from hybridlab.reachability.linear import Propagator, StepError, affine_step
+from hybridlab.reachability.meanvalue import MeanValue
 from hybridlab.reachability.modal import eigenbasis
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.sets import Zonotope
+from hybridlab.reachability.surfaces import SurfaceSteps, signs_box
 from hybridlab.reachability.system import ModeSystem, System
-from hybridlab.symbolic.intervals import IntervalFunction
 
 __all__ = ["FlowStepper", "RemainderError"]
 
@@ -57,7 +58,7 @@ class RemainderError(StepError):
     True
     """
 
-class FlowStepper:
+class FlowStepper(SurfaceSteps):
     """Steps of one mode's flow; keeps the propagator cache and the remainder guess.
 
     Examples
@@ -83,8 +84,10 @@ class FlowStepper:
         self.input_lo, self.input_hi = lo[:n_in], hi[:n_in]
         self.n_sigma = len(self.mode.sigma_index)
         self._props: dict[tuple[bytes, bytes, float], Propagator] = {}
-        self._remainder = np.zeros(len(self.mode.zsyms))
-        self._switch_lie: IntervalFunction | None = None
+        # the remainder guess of each flow (the mode's, and its sliding flows')
+        self._remainders: dict[str, np.ndarray] = {}
+        self._rates: MeanValue | None = None
+        self._equivalent: dict[int, MeanValue] = {}
         self._affine_A: np.ndarray | None = None
         self._reduction_basis: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._basis_sought = False  # an affine mode's eigenbasis is sought once
@@ -108,7 +111,7 @@ class FlowStepper:
 
     def reset(self) -> None:
         """Forget the remainder guess and the affine chain (a new flowpipe starts)."""
-        self._remainder[:] = 0.0
+        self._remainders.clear()
         self._chain = None
 
     def _sigma_signs(self, Z: Zonotope) -> np.ndarray:
@@ -154,63 +157,20 @@ class FlowStepper:
         if chain is not None and P is self._chain_end and chain.prop.r == r and not chain.worn:
             self._chain_end, H = chain.advance()
             return self._chain_end, H
-        signs = self._sigma_signs(P)
-        for _ in range(self.n_sigma + 1):
-            P_next, H = self._step_with(P, r, signs)
-            if self.n_sigma == 0:
-                return P_next, H
-            now = self._sigma_signs(H)
-            broken = (signs != 0) & (now != signs)
-            if not np.any(broken):
-                return self._attractive_cut(P, P_next, H, signs)
-            signs = np.where(broken, 0.0, signs)
-        raise StepError("the signs of the switching functions did not settle")  # unreachable
+        if self.n_sigma == 0:
+            return self._step_with(P, r, np.zeros((0, 2)), self.mode)
+        sig = signs_box(self._sigma_signs(P))
+        on_surface = self._surface_step(P, r, sig)
+        if on_surface is not None:
+            return on_surface
+        P_next, H, sig = self._settled(P, r, sig, self.mode)
+        return self._attractive_cut(P, P_next, H, sig, sig[:, 0] < sig[:, 1])
 
-    def _attractive_cut(self, P: Zonotope, P_next: Zonotope, H: Zonotope,
-                        signs: np.ndarray) -> tuple[Zonotope, Zonotope]:
-        """Keep a free switching function within its start range on the sides its surface
-        attracts.
-
-        If over the step's box the flow with ``sigma_k = +1`` (the side ``s_k > 0``) has
-        ``ds_k/dt <= 0``, no Filippov solution can rise above ``max(0, s_hi)`` of the start
-        set: above the surface ``s_k`` does not increase, and from the surface it cannot
-        enter that side. Likewise ``sigma_k = -1`` with ``ds_k/dt >= 0`` keeps ``s_k`` above
-        ``min(0, s_lo)``. Both together are sliding (a cart held by friction: ``v`` stays
-        0); one alone is a surface crossed in one direction only (a cart breaking away
-        never moves backwards). ``H`` and ``P_next`` are cut to the half-spaces that hold
-        (linear ``s_k`` only).
-        """
-        m = self.mode
-        free = np.flatnonzero((signs == 0) & m.switches.linear)
-        if free.size == 0:
-            return P_next, H
-        if self._switch_lie is None:
-            self._switch_lie = m.lie(m.switches)
-        box = H.bounds()
-        start = m.switches.range(P)
-        for k in free:
-            u_lo = np.r_[self.input_lo, np.where(signs == 0, -1.0, signs)]
-            u_hi = np.r_[self.input_hi, np.where(signs == 0, 1.0, signs)]
-            idx = len(self.input_lo) + k
-            u_lo[idx] = u_hi[idx] = 1.0
-            _, up = self._switch_lie(np.r_[box[:, 0], u_lo], np.r_[box[:, 1], u_hi])
-            u_lo[idx] = u_hi[idx] = -1.0
-            down, _ = self._switch_lie(np.r_[box[:, 0], u_lo], np.r_[box[:, 1], u_hi])
-            if not (up[k] <= 0 or down[k] >= 0):
-                continue
-            a, b = m.switches.a[k], m.switches.b[k]
-            hi = max(0.0, start[k, 1]) - b if up[k] <= 0 else np.inf     # a z + b <= ...
-            lo = min(0.0, start[k, 0]) - b if down[k] >= 0 else -np.inf  # a z + b >= ...
-            # None cannot happen for a sound H; the uncut set is kept then
-            H = H.intersect_slab(a, lo, hi) or H
-            P_next = P_next.intersect_slab(a, lo, hi) or P_next
-        return P_next, H
-
-    def _step_with(self, P: Zonotope, r: float, signs: np.ndarray
+    def _step_with(self, P: Zonotope, r: float, sig: np.ndarray, m: ModeSystem
                    ) -> tuple[Zonotope, Zonotope]:
-        m = self.mode
-        u_lo = np.r_[self.input_lo, np.where(signs == 0, -1.0, signs)]
-        u_hi = np.r_[self.input_hi, np.where(signs == 0, 1.0, signs)]
+        """A step of the flow ``m`` with the signs ``sigma_k`` in the ranges ``sig[k]``."""
+        u_lo = np.r_[self.input_lo, sig[:, 0]]
+        u_hi = np.r_[self.input_hi, sig[:, 1]]
         u_mid = 0.5 * (u_lo + u_hi)
         u_rad = 0.5 * (u_hi - u_lo)
         nz = P.dim
@@ -226,48 +186,49 @@ class FlowStepper:
             raise StepError(f"mode {m.name!r}: the flow or its Jacobian is not finite at {at}")
         prop = self._propagator(A, c, r)
         B_in = B[:, u_rad > 0] * u_rad[u_rad > 0]
-        if m.affine and not self._basis_sought:
+        if m.affine and m is self.mode and not self._basis_sought:
             self._affine_A = A
             self._basis_sought = True
         if m.affine:
             W = Zonotope(np.zeros(nz), B_in) if B_in.size else None
-            if self.n_sigma or self.options.bloat:
+            if self.n_sigma or self.options.bloat or m is not self.mode:
                 return affine_step(P, prop, W, self.options.bloat)
             self._chain = AffineChain(prop, P, W, self.options.order, self._basis())
             self._chain_end = self._chain.first[0]
             return self._chain.first
-        guess = self._remainder.copy()
+        remainder = self._remainders.setdefault(m.name, np.zeros(nz))
+        guess = remainder.copy()
         for _ in range(self.options.remainder_iterations):
             W = Zonotope(np.zeros(nz), np.hstack([B_in, np.diag(guess)]))
             P_next, H = affine_step(P, prop, W, self.options.bloat)
-            bound = self._remainder_bound(H, z_star, u_lo, u_hi, u_mid)
+            bound = self._remainder_bound(m, H, z_star, u_lo, u_hi, u_mid)
             if np.all(bound <= guess):
-                self._remainder = 1.05 * bound
+                remainder[:] = 1.05 * bound
                 return P_next, H
             guess = np.maximum(guess, 1.5 * bound + 1e-15)
         raise RemainderError(f"mode {m.name!r}: the linearisation remainder did not settle in "
                         f"{self.options.remainder_iterations} iterations (bound "
                         f"{np.max(bound):.3g}); lower `step` or shrink the initial set")
 
-    def _remainder_bound(self, H: Zonotope, z_star: np.ndarray, u_lo: np.ndarray,
+    def _remainder_bound(self, m: ModeSystem, H: Zonotope, z_star: np.ndarray, u_lo: np.ndarray,
                          u_hi: np.ndarray, u_mid: np.ndarray) -> np.ndarray:
         box = H.bounds()
         lo = np.r_[np.minimum(box[:, 0], z_star), u_lo]
         hi = np.r_[np.maximum(box[:, 1], z_star), u_hi]
         w_star = np.r_[z_star, u_mid]
         delta = np.maximum(np.abs(lo - w_star), np.abs(hi - w_star))
-        hessian = self.mode.hessian
+        hessian = m.hessian
         if hessian is None:  # None only for an affine flow, which has no remainder to bound
-            raise RuntimeError(f"mode {self.mode.name!r}: a remainder bound without a Hessian")
+            raise RuntimeError(f"mode {m.name!r}: a remainder bound without a Hessian")
         h_lo, h_hi = hessian(lo, hi)
         nw = w_star.size
         mag = np.maximum(np.abs(h_lo), np.abs(h_hi)).reshape(H.dim, nw, nw)
         if not np.all(np.isfinite(mag)):
-            raise StepError(f"mode {self.mode.name!r}: the Hessian is unbounded over the set "
+            raise StepError(f"mode {m.name!r}: the Hessian is unbounded over the set "
                             f"(a division by a range containing zero?)")
         with np.errstate(over="ignore", invalid="ignore"):
             bound = 0.5 * np.einsum("ijk,j,k->i", mag, delta, delta)
         if not np.all(np.isfinite(bound)):
-            raise RemainderError(f"mode {self.mode.name!r}: the linearisation remainder overflows "
+            raise RemainderError(f"mode {m.name!r}: the linearisation remainder overflows "
                             "(the set has blown up); lower `step` or shrink the initial set")
         return np.nextafter(bound * (1 + 1e-12), np.inf)

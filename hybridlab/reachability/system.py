@@ -269,11 +269,96 @@ class ModeSystem:
         w = set(self.wsyms)
         return not any(e.free_symbols & w for e in self._jac)
 
+    @cached_property
+    def flow_interval(self) -> IntervalFunction:
+        """Interval enclosure of the flow ``f(z, u)`` over a box of ``w``."""
+        return IntervalFunction([_no_impulses(e) for e in self.flow], self.wsyms)
+
+    @cached_property
+    def _slides(self) -> dict[int, ModeSystem | None]:
+        return {}
+
+    def sliding(self, k: int) -> ModeSystem | None:
+        """The flow on the surface of switch ``k`` (Filippov's equivalent control), or ``None``.
+
+        On the surface ``s_k = a z + b = 0`` of a linear switching function, with a flow
+        affine in its sign, ``f = f0 + g sigma_k``, a Filippov solution that stays on the
+        surface has ``a f = 0``, so ``sigma_k = -(a f0) / (a g)`` and the flow is
+        ``f0 - g (a f0) / (a g)``: a smooth flow wherever ``a g != 0``. It is ``None`` for
+        a nonlinear switching function or a flow not affine in ``sigma_k``. The returned
+        mode has the same states, inputs, switches and invariants (``sigma_k`` stays an
+        input the flow no longer reads).
+
+        Examples
+        --------
+        A block held by friction under a force ``y`` that decays with the friction it meets
+        (``v' = y - 2 sign(v)``, ``y' = -y - sign(v)``): on ``v = 0`` the friction is ``y/2``,
+        so ``y' = -3 y / 2``:
+
+        >>> v, y, s = sp.symbols("v y s", real=True)
+        >>> mode = ModeSystem("stuck", (y - 2 * s, -y - s), (v, y), (s,),
+        ...                   Rows([v], (v, y)), (0,), Rows([], (v, y)))
+        >>> mode.sliding(0).flow
+        (0, -3*y/2)
+        """
+        if k not in self._slides:
+            self._slides[k] = self._sliding(k)
+        return self._slides[k]
+
+    def _surface_parts(self, k: int) -> tuple[list[sp.Expr], list[sp.Expr], sp.Expr,
+                                              sp.Expr] | None:
+        """``(f0, g, a f0, a g)`` of ``f = f0 + g sigma_k`` on switch ``k``'s surface."""
+        if not self.switches.linear[k]:
+            return None
+        sigma = self.usyms[self.sigma_index[k]]
+        g = [sp.diff(e, sigma) for e in self.flow]
+        if any(sigma in gi.free_symbols for gi in g):
+            return None
+        f0 = [e.xreplace({sigma: 0}) for e in self.flow]
+        coef = [sp.Integer(int(a)) if float(a).is_integer() else sp.Float(a)
+                for a in self.switches.a[k]]
+        a_f0 = sp.Add(*[c * e for c, e in zip(coef, f0, strict=True) if c != 0])
+        a_g = sp.Add(*[c * e for c, e in zip(coef, g, strict=True) if c != 0])
+        if a_g == 0:
+            return None
+        return f0, g, a_f0, a_g
+
+    def equivalent_control(self, k: int) -> sp.Expr | None:
+        """``-(a f0) / (a g)``: the sign ``sigma_k`` that keeps a state on switch ``k``'s
+        surface (``None`` where :meth:`sliding` is).
+
+        Examples
+        --------
+        >>> v, y, s = sp.symbols("v y s", real=True)
+        >>> mode = ModeSystem("stuck", (y - 2 * s, -y - s), (v, y), (s,),
+        ...                   Rows([v], (v, y)), (0,), Rows([], (v, y)))
+        >>> mode.equivalent_control(0)
+        y/2
+        """
+        parts = self._surface_parts(k)
+        return None if parts is None else -parts[2] / parts[3]
+
+    def _sliding(self, k: int) -> ModeSystem | None:
+        parts = self._surface_parts(k)
+        if parts is None:
+            return None
+        f0, g, a_f0, a_g = parts
+        slide = tuple(e0 - gi * a_f0 / a_g if gi != 0 else e0
+                      for e0, gi in zip(f0, g, strict=True))
+        return ModeSystem(name=f"{self.name} sliding on {self.switches.texts[k]} = 0",
+                          flow=slide, zsyms=self.zsyms, usyms=self.usyms,
+                          switches=self.switches, sigma_index=self.sigma_index,
+                          invariants=self.invariants)
+
+    def lie_exprs(self, rows: Rows) -> list[sp.Expr]:
+        """The time derivatives of ``rows`` along this flow."""
+        return [_no_impulses(sum((sp.diff(e, z) * f
+                                  for z, f in zip(self.zsyms, self.flow, strict=True)),
+                                 sp.Integer(0))) for e in rows.exprs]
+
     def lie(self, rows: Rows) -> IntervalFunction:
         """Interval enclosure of the time derivatives of ``rows`` along this flow."""
-        exprs = [sum((sp.diff(e, z) * f for z, f in zip(self.zsyms, self.flow, strict=True)),
-                     sp.Integer(0)) for e in rows.exprs]
-        return IntervalFunction([_no_impulses(e) for e in exprs], self.wsyms)
+        return IntervalFunction(self.lie_exprs(rows), self.wsyms)
 
 
 @dataclass(frozen=True, eq=False)
