@@ -64,6 +64,13 @@ from hybridlab.symbolic.intervals import IntervalFunction
 
 __all__ = ["Item", "run_analysis"]
 
+#: a guard's crossing instant is landed on when known within this fraction of the step
+_SHARP = 1e-3
+#: the step across a landed crossing, relative to 1 + |t|
+_TINY_STEP = 1e-9
+#: shortened steps in a row at most (a rate that is not constant moves the instant)
+_LANDINGS = 4
+
 
 @dataclass(frozen=True, eq=False)
 class Item:
@@ -337,6 +344,7 @@ class _Analysis:
         now = item.t_lo  # exact current time (only meaningful when exact_time)
         done_at = item.sched_done
         # quiet stretches of an affine chain are taken many steps at a time (_quiet_steps)
+        landings = 0  # steps shortened in a row to land on a guard's crossing instant
         quiet = _QuietRun(not scheduled and bool(np.all(mode.invariants.linear)) and all(
             bool(np.all(system.guards[tr.index].linear)) for tr in guarded))
         while True:
@@ -367,6 +375,10 @@ class _Analysis:
                 r = instant - now
             if r <= 0:
                 r = self.step
+            if landings < _LANDINGS:
+                landed = self._landing(item.mode, guarded, P, r, start_lo)
+                landings = landings + 1 if landed < r else 0
+                r = landed
             try:
                 P_next, H = stepper.step(P, r)
             except (StepError, SetError) as exc:  # SetError: a set became non-finite
@@ -403,7 +415,9 @@ class _Analysis:
                     leaving[tr.index] = set()
                 if may:
                     clusters[tr.index].append((H, t0, t1))
-                    if rows.size == 0 or bool(np.all(rng[:, 0] > 0)):
+                    # every trajectory meets the guard during the step, or at its end
+                    if rows.size == 0 or bool(np.all(rng[:, 0] > 0)) or (
+                            P_next is not None and bool(np.all(rows.range(P_next)[:, 0] > 0))):
                         stop = True
                 elif clusters[tr.index]:
                     self._jump(item, tr, clusters[tr.index])
@@ -521,6 +535,42 @@ class _Analysis:
                     self._reason(str(exc))
                     continue
                 self.push(item.id, tr.target, post, item.t_lo, item.t_hi, item.jumps + 1)
+
+    def _landing(self, mode: str, guarded, P: Zonotope, r: float, t: float) -> float:
+        """The step length ``r``, shortened to land on the instant a guard is crossed
+        when that instant is known sharply.
+
+        A guard whose unmet rows each have a known value over the time-point set ``P``
+        and a known positive rate (the clock ``tau >= 0.4``, or ``v_s + a_s tau >= v_max``
+        with ``v_s`` and ``a_s`` known) is met by every trajectory at nearly one instant.
+        Stepping across it would put a whole step's hull through the jump (a smear of
+        the step in time); landing just short of it, then taking one tiny step across,
+        puts only the time-point set there. Only the step length changes, so this needs no proof: a
+        prediction that is off merely costs a step.
+        """
+        tiny = _TINY_STEP * (1.0 + abs(t))
+        box = P.bounds()
+        u_lo, u_hi = self.system.input_box(mode)
+        best = r
+        for tr in guarded:
+            rows = self.system.guards[tr.index]
+            if rows.size == 0:
+                continue
+            rng = rows.range(P, box)
+            unmet = np.flatnonzero(rng[:, 0] <= 0)
+            early = late = 0.0
+            if unmet.size:
+                rate_lo, rate_hi = self._lie(mode, tr.index)(np.r_[box[:, 0], u_lo],
+                                                            np.r_[box[:, 1], u_hi])
+                if not np.all(rate_lo[unmet] > 0):
+                    continue
+                early = float(np.max(np.maximum(0.0, -rng[unmet, 1]) / rate_hi[unmet]))
+                late = float(np.max(-rng[unmet, 0] / rate_lo[unmet]))
+            if not (late - early <= _SHARP * r and early - tiny < r):
+                continue
+            # just short of the instant (so the step's hull misses the guard), then across
+            best = min(best, early - tiny if early >= 2 * tiny else late + tiny)
+        return best
 
     def _lie(self, mode: str, index: int) -> IntervalFunction:
         key = (mode, index)
