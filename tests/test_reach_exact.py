@@ -200,3 +200,33 @@ def test_a_block_held_by_friction_follows_the_sliding_flow_not_a_free_sign():
         lo, hi = exact(0.5, t_hi), exact(1.0, t_lo)                     # y decreases
         assert y_lo <= lo and hi <= y_hi                                # enclosed
         assert y_hi - y_lo < (exact(1.0, t_lo) - exact(0.5, t_hi)) + 0.02  # and tight
+
+
+CLOCKED = """
+name = "clocked"
+states = { c = 0.0, y = 1.0 }
+[modes.a]
+flow = { c = "1", y = "-y" }
+[modes.b]
+flow = { c = "1", y = "0" }
+[[transitions]]
+name = "tick"
+source = "a"
+target = "b"
+guard = "c >= 1"
+[initial]
+mode = "a"
+"""
+
+
+def test_a_clock_guard_jumps_at_its_instant_not_over_a_step():
+    # c reaches 1 at t = 1 exactly, for every state: the jump takes y(1) = y0 / e (y stays
+    # there in b), entering b within 1e-6 of t = 1; crossing over a step would take the
+    # step's hull (0.3 here: y0 e^-1.2 .. y0 e^-0.9)
+    r = reach(hybridlab.loads_model(CLOCKED), initial={"y": (1.0, 2.0)}, t_end=2.0, step=0.3)
+    assert r.complete
+    entry = min((s for s in r.sets if s.mode == "b"), key=lambda s: s.t[0])
+    assert 1.0 - 1e-6 <= entry.t[0] <= 1.0
+    y_lo, y_hi = entry.bounds()[1]
+    assert y_lo <= math.exp(-1) <= y_lo + 1e-6 and y_hi - 1e-6 <= 2 * math.exp(-1) <= y_hi
+    assert max(s.t[1] for s in r.sets if s.mode == "a") < 1.0 + 1e-6   # none stays in a
