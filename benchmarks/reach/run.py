@@ -3,7 +3,8 @@
 Usage (from the repository root)::
 
     .venv/bin/python benchmarks/reach/run.py [--only NAME] [--timeout SECONDS]
-                                             [--hylaa-python PATH] [--cfg-step] [--verbose]
+                                             [--hylaa-python PATH] [--flowstar PATH]
+                                             [--cfg-step] [--verbose]
 
 Each benchmark is a SpaceEx model and ``.cfg`` in ``models/spaceex/`` (written from the
 published definition; source and published verdict in the file header). It is loaded
@@ -24,7 +25,12 @@ margin of the counterexample. Times: "whole" is the whole process from its start
 with ``--timeout`` for hybridlab), "in-process" from the loaded tool to the verdict
 (hybridlab: loading the SpaceEx files and the check; Hylaa: building and running its
 automaton). hybridlab's bytecode is compiled before the runs, as pip compiles an installed
-package's (Hylaa's). Nothing here is a test.
+package's (Hylaa's). With ``--flowstar PATH`` (a Flow* 2.1.0 binary, built outside this
+project: see README.md) the nonlinear instances also run through Flow* on the model files in
+``flowstar/`` (one subprocess each, in a scratch directory, under the same time limit as
+Hylaa); its verdict, its whole-process time, its own "Total time cost" (the CPU time of its
+flowpipe computation and safety check, as "in-process") and the ratios hybridlab / Flow* (where
+both reach the same SAFE or UNSAFE verdict) are added to the table. Nothing here is a test.
 """
 
 from __future__ import annotations
@@ -35,9 +41,11 @@ import json
 import math
 import os
 import platform
+import re
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -96,6 +104,17 @@ BENCHMARKS = (
               "defined here: eigenvalues -1 and -2000; closed form", True),
 )
 BY_NAME = {b.name: b for b in BENCHMARKS}
+
+# Flow* versions of the nonlinear instances (flowstar/*.model; settings and their sources in
+# each file's header and in README.md). Flow* 2.1.0 has one unsafe set per continuous model,
+# a conjunction: the coupled oscillators' model checks y1 >= 2.75, and y2 by their symmetry.
+FLOWSTAR_MODELS = {
+    "vanderpol": "vanderpol.model",
+    "coupled_vanderpol": "coupled_vanderpol.model",
+    "laub_loomis_w001": "laub_loomis_w001.model",
+    "laub_loomis_w005": "laub_loomis_w005.model",
+    "laub_loomis_w01": "laub_loomis_w01.model",
+}
 
 
 @dataclass(frozen=True)
@@ -187,6 +206,66 @@ def run_hylaa(b: Benchmark, python: str | None, timeout: float | None) -> Outcom
     return Outcome(data["verdict"], float(data["time_s"]), "", whole=time.perf_counter() - start)
 
 
+_ANSI = re.compile(r"\x1b\[[0-9;]*m")
+
+
+def parse_flowstar(out: str) -> tuple[str, float | None, str]:
+    """Flow* 2.1.0's verdict, its own time cost and a reason, from its standard output.
+
+    Flow* prints "Result of the safety verification on the computed flowpipes: SAFE" (or
+    UNSAFE, UNKNOWN) and "Total time cost: T seconds" (``clock()`` around its flowpipe
+    computation and safety check, parsing excluded). When the flowpipes stop before the
+    horizon ("Computation not completed") it still prints SAFE if the flowpipes it has are
+    safe: that is reported UNKNOWN here, the horizon not being covered.
+    """
+    text = _ANSI.sub("", out)
+    verdict = re.search(r"safety verification on the computed flowpipes:\s*(SAFE|UNSAFE|UNKNOWN)",
+                        text)
+    cost = re.search(r"Total time cost:\s*([0-9.eE+-]+)\s*seconds", text)
+    seconds = float(cost.group(1)) if cost else None
+    flowpipes = re.search(r"Computation (not )?completed: (\d+) flowpipe", text)
+    if verdict is None:
+        return "ERROR", seconds, "no verdict in Flow*'s output"
+    status = verdict.group(1)
+    if flowpipes and flowpipes.group(1):
+        reason = (f"computation not completed ({flowpipes.group(2)} flowpipes): the horizon is "
+                  f"not covered; Flow* says {status} for the flowpipes it has")
+        return ("UNSAFE" if status == "UNSAFE" else "UNKNOWN"), seconds, reason
+    n = flowpipes.group(2) if flowpipes else "?"
+    return status, seconds, f"{n} flowpipes computed, Flow* says {status}"
+
+
+def run_flowstar(b: Benchmark, binary: str | None, timeout: float | None) -> Outcome:
+    """Run Flow* on the benchmark's model file, in a scratch directory (it writes its
+    ``outputs/`` and ``images/`` directories into the working directory)."""
+    model = FLOWSTAR_MODELS.get(b.name)
+    if model is None:
+        return Outcome("n/a", None, "no Flow* model (only the nonlinear instances have one)")
+    if binary is None:
+        return Outcome("n/a", None, "no --flowstar given")
+    with tempfile.TemporaryDirectory(prefix="flowstar-") as scratch, \
+            open(HERE / "flowstar" / model) as stdin:
+        start = time.perf_counter()
+        proc = subprocess.Popen([binary], stdin=stdin, stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True, cwd=scratch,
+                                start_new_session=True)
+        try:
+            out, err = proc.communicate(timeout=1800 if timeout is None else timeout)
+        except subprocess.TimeoutExpired:
+            _kill_group(proc)
+            proc.communicate()
+            return Outcome("TIMEOUT", None, "Flow* gave no verdict in time (process killed)")
+        whole = time.perf_counter() - start
+    verdict, seconds, reason = parse_flowstar(out)
+    if proc.returncode != 0 and verdict == "ERROR":
+        reason = (err.strip().splitlines() or [f"exit status {proc.returncode}"])[-1]
+    return Outcome(verdict, seconds, reason, whole=whole)
+
+
+def _ratio(ours: float | None, theirs: float | None) -> str:
+    return "-" if ours is None or not theirs else f"{ours / theirs:.3g}"
+
+
 def _seconds(value: float | None) -> str:
     return "-" if value is None else f"{value:.2f}"
 
@@ -199,6 +278,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--only", action="append", choices=[b.name for b in BENCHMARKS])
     parser.add_argument("--hylaa-python", help="the python of a venv with hylaa installed")
+    parser.add_argument("--flowstar", metavar="PATH",
+                        help="a Flow* 2.1.0 binary: also run the nonlinear instances with it")
     parser.add_argument("--verbose", action="store_true", help="print each verdict's reason")
     parser.add_argument("--timeout", type=float, metavar="SECONDS",
                         help="run each hybridlab instance in a process of its own and report "
@@ -213,6 +294,8 @@ def main(argv: list[str] | None = None) -> int:
         return _worker(args.worker, args.cfg_step)
     if args.timeout is not None and not (math.isfinite(args.timeout) and args.timeout > 0):
         parser.error("--timeout must be a positive number of seconds")
+    if args.flowstar and not (os.path.isfile(args.flowstar) and os.access(args.flowstar, os.X_OK)):
+        parser.error(f"--flowstar: {args.flowstar} is not an executable file")
     # hybridlab's bytecode compiled first, as pip compiles an installed package's (Hylaa's):
     # with PYTHONDONTWRITEBYTECODE set, an editable checkout would otherwise be compiled
     # from source in every process (about 0.2 s of each whole-process time)
@@ -224,6 +307,9 @@ def main(argv: list[str] | None = None) -> int:
              ", hybridlab with default options"))
     header = ("benchmark", "published", "hybridlab", "whole [s]", "in-process [s]",
               "tightest bound", "Hylaa", "whole [s]", "in-process [s]")
+    if args.flowstar:
+        header += ("Flow*", "whole [s]", "in-process [s]", "hybridlab/Flow* whole",
+                   "hybridlab/Flow* in-process")
     rows = []
     for b in BENCHMARKS:
         if args.only and b.name not in args.only:
@@ -231,12 +317,23 @@ def main(argv: list[str] | None = None) -> int:
         o = (run_hybridlab(b, args.cfg_step) if args.timeout is None
              else run_hybridlab_isolated(b, args.timeout, args.cfg_step))
         h = run_hylaa(b, args.hylaa_python, args.timeout)
-        rows.append((b.name, b.published, o.verdict, _seconds(o.whole), _seconds(o.seconds),
-                     _bound(o.margin), h.verdict, _seconds(h.whole), _seconds(h.seconds)))
+        row = (b.name, b.published, o.verdict, _seconds(o.whole), _seconds(o.seconds),
+               _bound(o.margin), h.verdict, _seconds(h.whole), _seconds(h.seconds))
+        f = None
+        if args.flowstar:
+            f = run_flowstar(b, args.flowstar, args.timeout)
+            # a ratio of times only where both tools reach the same verdict
+            same = o.verdict == f.verdict and o.verdict in ("SAFE", "UNSAFE")
+            row += (f.verdict, _seconds(f.whole), _seconds(f.seconds),
+                    _ratio(o.whole, f.whole) if same else "-",
+                    _ratio(o.seconds, f.seconds) if same else "-")
+        rows.append(row)
         if args.verbose:
             print(f"{b.name}: hybridlab: {o.reason}", flush=True)
             if h.reason:
                 print(f"{b.name}: Hylaa: {h.reason}", flush=True)
+            if f is not None and f.reason:
+                print(f"{b.name}: Flow*: {f.reason}", flush=True)
     widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
     line = "| " + " | ".join(h.ljust(w) for h, w in zip(header, widths, strict=True)) + " |"
     print(line)
