@@ -8,8 +8,10 @@ interval contains that instant. Uncertain parameters are sampled the same way.
 
 The trolley (18 states, Lagrangian mechanics with stick-slip friction, sensor and
 trajectory modes with scheduled and state events) is covered over the first 2 ms of its
-step response only, in steps of 1e-4 s: each step of its nonlinear modes costs about a
-tenth of a second, so longer horizons cost minutes; see ``docs/verification.md``.
+step response, in steps of 1e-4 s, and over the first 30 ms of its stop-and-return (held by
+friction, breaking away, accelerating), in steps of 1e-3 s: each step of its nonlinear modes
+costs a few hundredths of a second, so longer horizons cost minutes; see
+``docs/verification.md``.
 """
 
 from __future__ import annotations
@@ -41,9 +43,13 @@ CASES = {
                         {"step": 0.01}),
     # the cart starts moving towards a 10 mm step with the pendulum anywhere in +-0.01 rad
     "trolley_step_2ms": ("trolley", "step", {"phi": (-0.01, 0.01)}, {}, 0.002, {"step": 1e-4}),
+    # the stop-and-return's start: held by friction (sliding), breaking away at about 12 ms
+    # (the friction's sign within its equivalent control's range), then accelerating
+    "trolley_break_away_30ms": ("trolley", None, {"phi": (-0.01, 0.01), "omega": (-0.05, 0.05)},
+                                {}, 0.03, {"step": 1e-3}),
 }
 #: samples per trajectory; the trolley's 18-state zonotopes need one LP per membership test
-GRID_POINTS = {"trolley_step_2ms": 301}
+GRID_POINTS = {"trolley_step_2ms": 301, "trolley_break_away_30ms": 301}
 
 
 def _starts(box: dict, params: dict, n_random: int, seed: int):
