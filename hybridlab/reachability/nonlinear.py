@@ -264,10 +264,9 @@ def _quadratic_bound(h_lo: np.ndarray, h_hi: np.ndarray, H: Zonotope, z_star: np
     D[nz:, G.shape[1] + 1:] = np.diag(u_rad)
     D = D[used]
     D = D[:, np.any(D != 0, axis=0)]
-    absD = np.abs(D)
+    mass = np.abs(D).sum(axis=1)  # the products' magnitudes sum to mass' |M| mass
     for i in rows:
         M = mid[i][np.ix_(used, used)]
-        quad = np.abs(D.T @ (M @ D)).sum()
-        quad += 1e-10 * (absD.T @ (np.abs(M) @ absD)).sum()
+        quad = np.abs((M @ D).T @ D).sum() + 1e-10 * float(mass @ np.abs(M) @ mass)
         bound[i] += 0.5 * quad
     return np.nextafter(bound, np.inf)
