@@ -42,6 +42,7 @@ from hybridlab.reachability.modal import eigenbasis
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.sets import Zonotope
 from hybridlab.reachability.system import ModeSystem, System
+from hybridlab.reachability.taylor import TaylorError, TaylorFlowpipe, TaylorSet
 from hybridlab.symbolic.intervals import IntervalFunction
 
 __all__ = ["FlowStepper", "RemainderError"]
@@ -92,12 +93,20 @@ class FlowStepper:
         # continues while it is handed back its own last end set
         self._chain: AffineChain | None = None
         self._chain_end: Zonotope | None = None
+        # with flowpipe="taylor", a nonlinear mode's Taylor model continues while the
+        # stepper is handed back the zonotope of its own last end set (see _taylor_step)
+        self._taylor: TaylorFlowpipe | None = None
+        self._taylor_sought = False
+        self._taylor_set: TaylorSet | None = None
+        self._taylor_end: Zonotope | None = None
 
     def reduce(self, Z: Zonotope, order: float) -> Zonotope:
         """``Z`` reduced to ``order``; for an affine mode, boxed in its eigenvector basis
         (where the flow contracts, so a box mapped and boxed again does not grow)."""
         if self._chain is not None and Z is self._chain_end:
             return Z  # a chain's end set: its size is bounded, and reducing it would wrap
+        if self._taylor_end is not None and Z is self._taylor_end:
+            return Z  # a Taylor model's end set: few generators, and the model goes on
         return Z.reduce(order, self._basis())
 
     def _basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
@@ -110,6 +119,7 @@ class FlowStepper:
         """Forget the remainder guess and the affine chain (a new flowpipe starts)."""
         self._remainder[:] = 0.0
         self._chain = None
+        self._taylor_set = self._taylor_end = None
 
     def _sigma_signs(self, Z: Zonotope) -> np.ndarray:
         """+1/-1 where the switching function has that sign over ``Z``, 0 where free."""
@@ -154,6 +164,9 @@ class FlowStepper:
         if chain is not None and P is self._chain_end and chain.prop.r == r and not chain.worn:
             self._chain_end, H = chain.advance()
             return self._chain_end, H
+        taylor = self._taylor_flowpipe()
+        if taylor is not None:
+            return self._taylor_step(taylor, P, r)
         signs = self._sigma_signs(P)
         for _ in range(self.n_sigma + 1):
             P_next, H = self._step_with(P, r, signs)
@@ -165,6 +178,37 @@ class FlowStepper:
                 return self._attractive_cut(P, P_next, H, signs)
             signs = np.where(broken, 0.0, signs)
         raise StepError("the signs of the switching functions did not settle")  # unreachable
+
+    def _taylor_flowpipe(self) -> TaylorFlowpipe | None:
+        """The mode's Taylor-model flowpipe when ``flowpipe="taylor"`` applies to it: a
+        nonlinear flow without switching functions, without time-varying inputs, and
+        built from operations Taylor models support."""
+        if self._taylor_sought or self.options.flowpipe != "taylor":
+            return self._taylor
+        self._taylor_sought = True
+        m = self.mode
+        if self.n_sigma or m.affine or any(e.free_symbols & set(m.usyms) for e in m.flow):
+            return None
+        try:
+            self._taylor = TaylorFlowpipe(m.flow, m.zsyms)
+        except TaylorError:
+            return None  # an operation Taylor models do not support: linearisation
+        return self._taylor
+
+    def _taylor_step(self, taylor: TaylorFlowpipe, P: Zonotope, r: float
+                     ) -> tuple[Zonotope, Zonotope]:
+        """A Taylor-model step: from the model kept since the last step when ``P`` is
+        that step's end set (the hybrid layer hands it back unchanged), else from ``P``."""
+        X = self._taylor_set
+        if X is None or P is not self._taylor_end:
+            X = taylor.start(P)
+        try:
+            X, P_next, H = taylor.step(X, r)
+        except TaylorError as exc:
+            self._taylor_set = self._taylor_end = None
+            raise RemainderError(f"mode {self.mode.name!r}: Taylor model: {exc}") from exc
+        self._taylor_set, self._taylor_end = X, P_next
+        return P_next, H
 
     def _attractive_cut(self, P: Zonotope, P_next: Zonotope, H: Zonotope,
                         signs: np.ndarray) -> tuple[Zonotope, Zonotope]:

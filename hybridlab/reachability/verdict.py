@@ -413,6 +413,8 @@ def check(
         return best
 
     split_chosen = "split" in reach_overrides or getattr(options, "split", 1) != 1
+    flowpipe_chosen = "flowpipe" in reach_overrides or (
+        getattr(options, "flowpipe", "zonotope") != "zonotope")
     try:  # a refinement that fails leaves the result before it standing
         if best.open and not step_chosen:
             best = halved(best)
@@ -420,9 +422,18 @@ def check(
             clustered = attempt({**best.stage, "clustering": "auto"})
             if clustered.proved and clustered.result.complete or clustered.lower > best.lower:
                 best = clustered
-        # a nonlinear mode's set outgrew its linearisation part-way: the initial set in
-        # pieces, while the pieces get further
+        # a nonlinear mode's set outgrew its linearisation part-way: Taylor models (which
+        # keep the set's curvature) in one piece, then the initial set in pieces, while
+        # the pieces get further
         reached = best.reached(problem.t_start, problem.t_end)
+        if best.result.too_wide and not flowpipe_chosen:
+            taylor = attempt({**best.stage, "flowpipe": "taylor"})
+            if taylor.open and not step_chosen:
+                taylor = halved(taylor)
+            further = taylor.reached(problem.t_start, problem.t_end)
+            if (taylor.proved and taylor.result.complete or further > reached
+                    or taylor.result.complete and taylor.lower > best.lower):
+                best, reached = taylor, further
         if best.result.too_wide and reached >= _SPLIT_PROGRESS and not split_chosen:
             for k in _SPLITS:
                 if k ** problem.dims > _MAX_SPLIT_PIECES:
@@ -558,6 +569,8 @@ def _describe(stage: dict[str, Any]) -> str:
         parts.append("the guard hits grouped into compact clusters, clustering='auto'")
     if "step" in stage:
         parts.append(f"step={stage['step']:.6g}")
+    if "flowpipe" in stage:
+        parts.append(f"{stage['flowpipe']} flowpipes, flowpipe={stage['flowpipe']!r}")
     if "split" in stage:
         parts.append(f"the initial set split into {stage['split']} per uncertain direction, "
                      f"split={stage['split']}")
