@@ -238,3 +238,20 @@ def test_stepper_falls_back_to_linearisation_where_taylor_models_do_not_apply():
                           ReachOptions(flowpipe="taylor"))
     with pytest.raises(RemainderError, match="Taylor model"):
         stepper.step(Zonotope([1.0, 2.0], np.diag([0.1, 0.1])), 5.0)
+
+
+def test_check_tries_taylor_flowpipes_before_splitting(models_dir):
+    from hybridlab.io import load_spaceex
+    from hybridlab.reachability.falsify import FalsifyOptions
+    from hybridlab.reachability.verdict import VerdictStatus, check
+
+    vdp = load_spaceex(models_dir / "spaceex" / "vanderpol.xml",
+                       models_dir / "spaceex" / "vanderpol.cfg")
+    kw = {k: v for k, v in vdp.reach_kwargs().items() if k != "step"}
+    kw["t_end"] = 4.0
+    whole = reach(vdp.model, **kw, step=0.05)
+    assert not whole.complete and whole.too_wide  # linearised, the set outgrows its remainder
+    verdict = check(vdp.model, safe=vdp.safe_specs(), **kw, step=0.05,
+                    falsify_options=FalsifyOptions(samples=0, local_evals=0))
+    assert verdict.status is VerdictStatus.SAFE
+    assert "flowpipe='taylor'" in verdict.reason and "split" not in verdict.reason
