@@ -11,7 +11,7 @@ from scipy.integrate import solve_ivp
 
 import hybridlab
 from hybridlab.reachability import reach
-from hybridlab.reachability.nonlinear import FlowStepper, RemainderError
+from hybridlab.reachability.nonlinear import TAYLOR_APPLIES, FlowStepper, RemainderError
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.sets import Zonotope
 from hybridlab.reachability.system import build_system
@@ -230,7 +230,16 @@ def test_stepper_falls_back_to_linearisation_where_taylor_models_do_not_apply():
     system = build_system(c, c.parameter_vector(), {}, {})
     stepper = FlowStepper(system, "osc", ReachOptions(flowpipe="taylor"))
     P, H = stepper.step(Zonotope([1.4, 2.4], np.diag([0.01, 0.01])), 0.01)
-    assert stepper._taylor is None and H.contains_points([1.4, 2.4])
+    assert stepper.taylor_model() is None and H.contains_points([1.4, 2.4])
+    # its linearisation's failure does not point at Taylor models; Van der Pol's does
+    with pytest.raises(RemainderError) as info:
+        FlowStepper(system, "osc", ReachOptions()).step(
+            Zonotope([1.4, 2.4], np.diag([3.0, 3.0])), 2.0)
+    assert TAYLOR_APPLIES not in str(info.value)
+    c = hybridlab.compile_model(hybridlab.loads_model(VDP_MODEL))
+    with pytest.raises(RemainderError, match=r"flowpipe='taylor'"):
+        FlowStepper(build_system(c, c.parameter_vector(), {}, {}), "osc",
+                    ReachOptions()).step(Zonotope([1.4, 2.4], np.diag([3.0, 3.0])), 2.0)
     # a Taylor step that fails is a RemainderError, which the callers' refinements know
     blow = hybridlab.loads_model(VDP_MODEL.replace('"(1 - x**2)*y - x"', '"y**2"'))
     c = hybridlab.compile_model(blow)
@@ -251,6 +260,7 @@ def test_check_tries_taylor_flowpipes_before_splitting(models_dir):
     kw["t_end"] = 4.0
     whole = reach(vdp.model, **kw, step=0.05)
     assert not whole.complete and whole.too_wide  # linearised, the set outgrows its remainder
+    assert TAYLOR_APPLIES in whole.incomplete_reasons[0]
     verdict = check(vdp.model, safe=vdp.safe_specs(), **kw, step=0.05,
                     falsify_options=FalsifyOptions(samples=0, local_evals=0))
     assert verdict.status is VerdictStatus.SAFE

@@ -45,7 +45,10 @@ from hybridlab.reachability.system import ModeSystem, System
 from hybridlab.reachability.taylor import TaylorError, TaylorFlowpipe, TaylorSet
 from hybridlab.symbolic.intervals import IntervalFunction
 
-__all__ = ["FlowStepper", "RemainderError"]
+__all__ = ["FlowStepper", "RemainderError", "TAYLOR_APPLIES"]
+
+TAYLOR_APPLIES = ", or take Taylor models (flowpipe='taylor'), which apply to this mode"
+"""Appended to a linearisation's failure in a mode Taylor models apply to."""
 
 
 class RemainderError(StepError):
@@ -180,10 +183,14 @@ class FlowStepper:
         raise StepError("the signs of the switching functions did not settle")  # unreachable
 
     def _taylor_flowpipe(self) -> TaylorFlowpipe | None:
-        """The mode's Taylor-model flowpipe when ``flowpipe="taylor"`` applies to it: a
-        nonlinear flow without switching functions, without time-varying inputs, and
-        built from operations Taylor models support."""
-        if self._taylor_sought or self.options.flowpipe != "taylor":
+        """The mode's Taylor-model flowpipe when ``flowpipe="taylor"`` was asked for."""
+        return self.taylor_model() if self.options.flowpipe == "taylor" else None
+
+    def taylor_model(self) -> TaylorFlowpipe | None:
+        """The mode's Taylor-model flowpipe if Taylor models apply to it: a nonlinear flow
+        without switching functions, without time-varying inputs, and built from
+        operations Taylor models support; else ``None``."""
+        if self._taylor_sought:
             return self._taylor
         self._taylor_sought = True
         m = self.mode
@@ -291,7 +298,14 @@ class FlowStepper:
             guess = np.maximum(guess, 1.5 * bound + 1e-15)
         raise RemainderError(f"mode {m.name!r}: the linearisation remainder did not settle in "
                         f"{self.options.remainder_iterations} iterations (bound "
-                        f"{np.max(bound):.3g}); lower `step` or shrink the initial set")
+                        f"{np.max(bound):.3g}); lower `step` or shrink the initial set"
+                        f"{self._taylor_hint()}")
+
+    def _taylor_hint(self) -> str:
+        """The note of a linearisation's failure that Taylor models apply to the mode (the
+        verdict tries them on that note)."""
+        return ("" if self.options.flowpipe == "taylor" or self.taylor_model() is None
+                else TAYLOR_APPLIES)
 
     def _remainder_bound(self, H: Zonotope, z_star: np.ndarray, u_lo: np.ndarray,
                          u_hi: np.ndarray, u_mid: np.ndarray) -> np.ndarray:
@@ -313,5 +327,6 @@ class FlowStepper:
             bound = 0.5 * np.einsum("ijk,j,k->i", mag, delta, delta)
         if not np.all(np.isfinite(bound)):
             raise RemainderError(f"mode {self.mode.name!r}: the linearisation remainder overflows "
-                            "(the set has blown up); lower `step` or shrink the initial set")
+                            "(the set has blown up); lower `step` or shrink the initial set"
+                            f"{self._taylor_hint()}")
         return np.nextafter(bound * (1 + 1e-12), np.inf)

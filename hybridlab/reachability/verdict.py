@@ -36,6 +36,7 @@ from hybridlab.reachability.falsify import (
     FalsificationSearch,
     FalsifyOptions,
 )
+from hybridlab.reachability.nonlinear import TAYLOR_APPLIES
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.spec import Avoid, Spec, as_specs, lowers_on
 from hybridlab.simulation.executors import check_executor
@@ -423,10 +424,11 @@ def check(
             if clustered.proved and clustered.result.complete or clustered.lower > best.lower:
                 best = clustered
         # a nonlinear mode's set outgrew its linearisation part-way: Taylor models (which
-        # keep the set's curvature) in one piece, then the initial set in pieces, while
-        # the pieces get further
+        # keep the set's curvature) in one piece where they apply to that mode, then the
+        # initial set in pieces, while the pieces get further
         reached = best.reached(problem.t_start, problem.t_end)
-        if best.result.too_wide and not flowpipe_chosen:
+        if best.result.too_wide and not flowpipe_chosen and any(
+                TAYLOR_APPLIES in r for r in best.result.incomplete_reasons):
             taylor = attempt({**best.stage, "flowpipe": "taylor"})
             if taylor.open and not step_chosen:
                 taylor = halved(taylor)
