@@ -549,6 +549,18 @@ class TaylorSet:
     ----------
     coeffs : array of shape (dim, M)
     rad : array of shape (dim,)
+
+    Examples
+    --------
+    The model of a box has the box's centre and generators as its constant and linear
+    coefficients; its zonotope is the box widened by the bound of its rounding:
+
+    >>> X = TaylorFlowpipe([sp.Integer(0)], [sp.Symbol("x")]).start(Zonotope([1.0], [[0.5]]))
+    >>> X.dim, float(X.coeffs[0, 0]), X.coeffs[0, X.basis.s_index].tolist()
+    (1, 1.0, [0.5])
+    >>> lo, hi = X.zonotope().bounds()[0]
+    >>> bool(lo <= 0.5 and 1.5 <= hi and hi - lo < 1 + 1e-9)
+    True
     """
 
     basis: _Basis
