@@ -103,6 +103,39 @@ def test_rotation_does_not_wrap():
     assert ends[-1].contains_points(turned).all()
 
 
+def _model_at(X, s):
+    """The end set's polynomial at initial-set variables ``s`` (rows), ``q = 0``, and the
+    slack of its error terms (``q`` part and interval) per state."""
+    B = X.basis
+    e = B.exps
+    mono = np.prod(s[:, None, :] ** e[None, :, :B.m], axis=2) * (e[:, B.m:].sum(1) == 0)
+    slack = np.abs(X.coeffs[:, B.q_index]).sum(1) + X.rad
+    return mono @ X.coeffs.T, slack
+
+
+@pytest.mark.parametrize("kq", [1, 2, 4])
+def test_low_order_models_hold_each_solution_pointwise(monkeypatch, kq):
+    # at a low space order the truncated terms dominate the error terms: the model at s
+    # must still hold the solution from c + G s, point by point (sharper than the sets)
+    import hybridlab.reachability.taylor as taylor
+
+    monkeypatch.setattr(taylor, "orders", lambda m: (kq, 6))
+    c, g = np.array([1.4, 2.4]), np.array([0.15, 0.05])
+    pipe = TaylorFlowpipe([y, (1 - x ** 2) * y - x], [x, y])
+    X = pipe.start(Zonotope(c, np.diag(g)))
+    s = np.random.default_rng(2).uniform(-1, 1, (12, 2))
+    s[:4] = [[1, 1], [1, -1], [-1, 1], [-1, -1]]
+    for k in range(1, 26):
+        X, _, _ = pipe.step(X, 0.04)
+        if k % 5 == 0:
+            model, slack = _model_at(X, s)
+            for z0, m in zip(c + g * s, model, strict=True):
+                z = solve_ivp(_vdp, (0, 0.04 * k), z0, rtol=1e-12, atol=1e-13).y[:, -1]
+                assert np.all(np.abs(z - m) <= slack), (k, z0, z - m, slack)
+    # and the error terms are small, not a box around everything
+    assert np.all(slack < {1: 0.15, 2: 0.015, 4: 3e-3}[kq])
+
+
 def _vdp(t, z):
     return [z[1], (1 - z[0] ** 2) * z[1] - z[0]]
 
@@ -265,3 +298,26 @@ def test_check_tries_taylor_flowpipes_before_splitting(models_dir):
                     falsify_options=FalsifyOptions(samples=0, local_evals=0))
     assert verdict.status is VerdictStatus.SAFE
     assert "flowpipe='taylor'" in verdict.reason and "split" not in verdict.reason
+
+
+@pytest.mark.parametrize("kq", [1, 13])
+@pytest.mark.parametrize("name", ["sin", "cos", "exp", "reciprocal"])
+def test_elementary_functions_of_wide_models_enclose_their_values(name, kq):
+    # a wide argument: the series is cut at degree kq + kt; at kq = 1 the truncated
+    # products, at kq = 13 (no time variable) the Lagrange remainder must cover the rest
+    import hybridlab.reachability.taylor as taylor
+
+    B = taylor._basis(1, 0, kq, 0 if kq == 13 else 6)
+    c = np.zeros(B.size)
+    w = 0.8 if name == "reciprocal" else 2.5  # the Lagrange form of 1/x is loose near 0
+    c[0], c[B.s_index[0]] = 2.0, w  # the argument 2 + w s, s in [-1, 1]
+    f = {"sin": (lambda a: taylor._sin_cos(B, a, False), np.sin),
+         "cos": (lambda a: taylor._sin_cos(B, a, True), np.cos),
+         "exp": (lambda a: taylor._exp(B, a), np.exp),
+         "reciprocal": (lambda a: taylor._reciprocal(B, a), lambda v: 1 / v)}[name]
+    coeffs, rad = f[0]((c, 0.0))
+    s = np.linspace(-1, 1, 401)
+    model = (s[:, None] ** B.exps[:, 0] * (B.exps[:, 1] == 0)) @ coeffs
+    exact = f[1](2.0 + w * s)
+    assert np.all(np.abs(exact - model) <= rad)
+    assert rad < 3 * np.ptp(exact)  # an enclosure, not the whole line
