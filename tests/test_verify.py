@@ -422,12 +422,14 @@ def test_a_set_too_wide_for_the_linearisation_is_split_until_proved(models_dir):
     kw["initial"] = {"x": (1.1, 1.7), "y": (2.3, 2.5)}  # twice the ARCH box
     whole = hybridlab.reach(vdp.model, **{**kw, "t_end": 4.0})
     assert not whole.complete and whole.too_wide  # one set: the remainder blows up
-    # the step is the caller's here, so only the split can prove it
+    # the step and the flowpipe are the caller's here, so only the split can prove it
     verdict = check_safety(vdp.model, safe=vdp.safe_specs(), **{**kw, "t_end": 4.0},
-                           step=0.01, falsify_options=FalsifyOptions(samples=0, local_evals=0))
+                           step=0.01, flowpipe="zonotope",
+                           falsify_options=FalsifyOptions(samples=0, local_evals=0))
     assert verdict.status is VerdictStatus.SAFE
     assert "split=2" in verdict.reason
     # an explicit split is the caller's: no other is tried
     kept = check_safety(vdp.model, safe=vdp.safe_specs(), **{**kw, "t_end": 4.0}, split=1,
-                        step=0.01, falsify_options=FalsifyOptions(samples=0, local_evals=0))
+                        step=0.01, flowpipe="zonotope",
+                        falsify_options=FalsifyOptions(samples=0, local_evals=0))
     assert kept.status is VerdictStatus.UNKNOWN and "split=2" not in kept.reason

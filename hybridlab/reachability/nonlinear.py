@@ -44,8 +44,12 @@ from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.sets import Zonotope
 from hybridlab.reachability.surfaces import SurfaceSteps, signs_box
 from hybridlab.reachability.system import ModeSystem, System
+from hybridlab.reachability.taylor import TaylorError, TaylorFlowpipe, TaylorSet
 
-__all__ = ["FlowStepper", "RemainderError"]
+__all__ = ["FlowStepper", "RemainderError", "TAYLOR_APPLIES"]
+
+TAYLOR_APPLIES = ", or take Taylor models (flowpipe='taylor'), which apply to this mode"
+"""Appended to a linearisation's failure in a mode Taylor models apply to."""
 
 
 class RemainderError(StepError):
@@ -95,12 +99,20 @@ class FlowStepper(SurfaceSteps):
         # continues while it is handed back its own last end set
         self._chain: AffineChain | None = None
         self._chain_end: Zonotope | None = None
+        # with flowpipe="taylor", a nonlinear mode's Taylor model continues while the
+        # stepper is handed back the zonotope of its own last end set (see _taylor_step)
+        self._taylor: TaylorFlowpipe | None = None
+        self._taylor_sought = False
+        self._taylor_set: TaylorSet | None = None
+        self._taylor_end: Zonotope | None = None
 
     def reduce(self, Z: Zonotope, order: float) -> Zonotope:
         """``Z`` reduced to ``order``; for an affine mode, boxed in its eigenvector basis
         (where the flow contracts, so a box mapped and boxed again does not grow)."""
         if self._chain is not None and Z is self._chain_end:
             return Z  # a chain's end set: its size is bounded, and reducing it would wrap
+        if self._taylor_end is not None and Z is self._taylor_end:
+            return Z  # a Taylor model's end set: few generators, and the model goes on
         return Z.reduce(order, self._basis())
 
     def _basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
@@ -113,6 +125,7 @@ class FlowStepper(SurfaceSteps):
         """Forget the remainder guess and the affine chain (a new flowpipe starts)."""
         self._remainders.clear()
         self._chain = None
+        self._taylor_set = self._taylor_end = None
 
     def _sigma_signs(self, Z: Zonotope) -> np.ndarray:
         """+1/-1 where the switching function has that sign over ``Z``, 0 where free."""
@@ -157,6 +170,9 @@ class FlowStepper(SurfaceSteps):
         if chain is not None and P is self._chain_end and chain.prop.r == r and not chain.worn:
             self._chain_end, H = chain.advance()
             return self._chain_end, H
+        taylor = self._taylor_flowpipe()
+        if taylor is not None:
+            return self._taylor_step(taylor, P, r)
         if self.n_sigma == 0:
             return self._step_with(P, r, np.zeros((0, 2)), self.mode)
         sig = signs_box(self._sigma_signs(P))
@@ -165,6 +181,41 @@ class FlowStepper(SurfaceSteps):
             return on_surface
         P_next, H, sig = self._settled(P, r, sig, self.mode)
         return self._attractive_cut(P, P_next, H, sig, sig[:, 0] < sig[:, 1])
+
+    def _taylor_flowpipe(self) -> TaylorFlowpipe | None:
+        """The mode's Taylor-model flowpipe when ``flowpipe="taylor"`` was asked for."""
+        return self.taylor_model() if self.options.flowpipe == "taylor" else None
+
+    def taylor_model(self) -> TaylorFlowpipe | None:
+        """The mode's Taylor-model flowpipe if Taylor models apply to it: a nonlinear flow
+        without switching functions, without time-varying inputs, and built from
+        operations Taylor models support; else ``None``."""
+        if self._taylor_sought:
+            return self._taylor
+        self._taylor_sought = True
+        m = self.mode
+        if self.n_sigma or m.affine or any(e.free_symbols & set(m.usyms) for e in m.flow):
+            return None
+        try:
+            self._taylor = TaylorFlowpipe(m.flow, m.zsyms)
+        except TaylorError:
+            return None  # an operation Taylor models do not support: linearisation
+        return self._taylor
+
+    def _taylor_step(self, taylor: TaylorFlowpipe, P: Zonotope, r: float
+                     ) -> tuple[Zonotope, Zonotope]:
+        """A Taylor-model step: from the model kept since the last step when ``P`` is
+        that step's end set (the hybrid layer hands it back unchanged), else from ``P``."""
+        X = self._taylor_set
+        if X is None or P is not self._taylor_end:
+            X = taylor.start(P)
+        try:
+            X, P_next, H = taylor.step(X, r)
+        except TaylorError as exc:
+            self._taylor_set = self._taylor_end = None
+            raise RemainderError(f"mode {self.mode.name!r}: Taylor model: {exc}") from exc
+        self._taylor_set, self._taylor_end = X, P_next
+        return P_next, H
 
     def _step_with(self, P: Zonotope, r: float, sig: np.ndarray, m: ModeSystem
                    ) -> tuple[Zonotope, Zonotope]:
@@ -208,7 +259,14 @@ class FlowStepper(SurfaceSteps):
             guess = np.maximum(guess, 1.5 * bound + 1e-15)
         raise RemainderError(f"mode {m.name!r}: the linearisation remainder did not settle in "
                         f"{self.options.remainder_iterations} iterations (bound "
-                        f"{np.max(bound):.3g}); lower `step` or shrink the initial set")
+                        f"{np.max(bound):.3g}); lower `step` or shrink the initial set"
+                        f"{self._taylor_hint()}")
+
+    def _taylor_hint(self) -> str:
+        """The note of a linearisation's failure that Taylor models apply to the mode (the
+        verdict tries them on that note)."""
+        return ("" if self.options.flowpipe == "taylor" or self.taylor_model() is None
+                else TAYLOR_APPLIES)
 
     def _remainder_bound(self, m: ModeSystem, H: Zonotope, z_star: np.ndarray, u_lo: np.ndarray,
                          u_hi: np.ndarray, u_mid: np.ndarray) -> np.ndarray:
@@ -233,7 +291,8 @@ class FlowStepper(SurfaceSteps):
                 0.5 * (u_hi - u_lo), delta))
         if not np.all(np.isfinite(bound)):
             raise RemainderError(f"mode {m.name!r}: the linearisation remainder overflows "
-                            "(the set has blown up); lower `step` or shrink the initial set")
+                            "(the set has blown up); lower `step` or shrink the initial set"
+                            f"{self._taylor_hint()}")
         return np.nextafter(bound * (1 + 1e-12), np.inf)
 
 

@@ -76,6 +76,14 @@ class ReachOptions:
         The absolute ``time.time()`` at which the analysis stops; set by
         :func:`hybridlab.reach` from ``time_budget`` (pieces on other processes
         share it).
+    flowpipe : {"zonotope", "taylor"}
+        Set representation of the flowpipes of nonlinear modes. ``"zonotope"``:
+        conservative linearisation, zonotopes with a Lagrange remainder.
+        ``"taylor"``: Taylor models, polynomial in the initial set, validated by
+        Picard iteration (:mod:`hybridlab.reachability.taylor`), for modes without
+        switching functions and without time-varying inputs (others keep
+        zonotopes); they follow wide initial sets of strongly nonlinear flows in
+        one piece, at a higher cost per step. Affine modes are exact either way.
     split : int
         Split the initial set into this many pieces along each of its
         generators (each uncertain initial state or parameter) and analyse
@@ -100,6 +108,7 @@ class ReachOptions:
     fixpoint: bool = True
     bloat: float = 0.0
     split: int = 1
+    flowpipe: str = "zonotope"
     time_budget: float | None = None
     progress: bool | None = None
     deadline: float | None = None
@@ -127,6 +136,8 @@ class ReachOptions:
                              f"(got {self.remainder_iterations!r})")
         if not (isinstance(self.split, int) and self.split >= 1):
             raise ValueError(f"split must be a positive integer (got {self.split!r})")
+        if self.flowpipe not in ("zonotope", "taylor"):
+            raise ValueError(f"flowpipe must be 'zonotope' or 'taylor' (got {self.flowpipe!r})")
         if not 0 <= self.bloat < 1e-3:
             raise ValueError(f"bloat must be in [0, 1e-3) (got {self.bloat!r})")
         if self.time_budget is not None and not (0 < float(self.time_budget) < 1e300):

@@ -36,6 +36,7 @@ from hybridlab.reachability.falsify import (
     FalsificationSearch,
     FalsifyOptions,
 )
+from hybridlab.reachability.nonlinear import TAYLOR_APPLIES
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.spec import Avoid, Spec, as_specs, lowers_on
 from hybridlab.simulation.executors import check_executor
@@ -413,6 +414,8 @@ def check(
         return best
 
     split_chosen = "split" in reach_overrides or getattr(options, "split", 1) != 1
+    flowpipe_chosen = "flowpipe" in reach_overrides or (
+        getattr(options, "flowpipe", "zonotope") != "zonotope")
     try:  # a refinement that fails leaves the result before it standing
         if best.open and not step_chosen:
             best = halved(best)
@@ -420,9 +423,19 @@ def check(
             clustered = attempt({**best.stage, "clustering": "auto"})
             if clustered.proved and clustered.result.complete or clustered.lower > best.lower:
                 best = clustered
-        # a nonlinear mode's set outgrew its linearisation part-way: the initial set in
-        # pieces, while the pieces get further
+        # a nonlinear mode's set outgrew its linearisation part-way: Taylor models (which
+        # keep the set's curvature) in one piece where they apply to that mode, then the
+        # initial set in pieces, while the pieces get further
         reached = best.reached(problem.t_start, problem.t_end)
+        if best.result.too_wide and not flowpipe_chosen and any(
+                TAYLOR_APPLIES in r for r in best.result.incomplete_reasons):
+            taylor = attempt({**best.stage, "flowpipe": "taylor"})
+            if taylor.open and not step_chosen:
+                taylor = halved(taylor)
+            further = taylor.reached(problem.t_start, problem.t_end)
+            if (taylor.proved and taylor.result.complete or further > reached
+                    or taylor.result.complete and taylor.lower > best.lower):
+                best, reached = taylor, further
         if best.result.too_wide and reached >= _SPLIT_PROGRESS and not split_chosen:
             for k in _SPLITS:
                 if k ** problem.dims > _MAX_SPLIT_PIECES:
@@ -558,6 +571,8 @@ def _describe(stage: dict[str, Any]) -> str:
         parts.append("the guard hits grouped into compact clusters, clustering='auto'")
     if "step" in stage:
         parts.append(f"step={stage['step']:.6g}")
+    if "flowpipe" in stage:
+        parts.append(f"{stage['flowpipe']} flowpipes, flowpipe={stage['flowpipe']!r}")
     if "split" in stage:
         parts.append(f"the initial set split into {stage['split']} per uncertain direction, "
                      f"split={stage['split']}")
