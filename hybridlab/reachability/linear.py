@@ -86,6 +86,10 @@ def box_generators(radius: np.ndarray) -> np.ndarray:
 _MAX_TERMS = 80
 
 
+#: Taylor terms of the hull correction taken on the centre as vectors (3 .. this)
+_CENTRE_TERMS = 5
+
+
 def _tail(a: float, eta: int) -> float:
     """Bound of ``sum_{i > eta} a^i / i!`` (geometric tail), rounded up."""
     if a == 0:
@@ -100,7 +104,9 @@ class TaylorBlock:
 
     ``F2`` is the leading correction ``rho_2 M^2 r^2 / 2``; ``F_rest`` bounds the
     terms ``i >= 3``, the tail and the rounding of every term entrywise;
-    ``F_abs = |F2| + F_rest``; ``input_tail`` bounds
+    ``F_abs = |F2| + F_rest``; ``F_next`` holds the terms ``rho_i M^i r^i / i!`` for
+    ``i = 3 .. 5`` and ``F_tail`` bounds the rest as ``F_rest`` does (a centre's
+    correction takes those terms as vectors); ``input_tail`` bounds
     ``sum_{i>=1} |M^i| r^(i+1)/(i+1)!`` and its tail.
 
     Examples
@@ -114,6 +120,8 @@ class TaylorBlock:
     F_rest: np.ndarray
     F_abs: np.ndarray
     input_tail: np.ndarray
+    F_next: tuple[np.ndarray, ...] = ()
+    F_tail: np.ndarray | None = None
 
     @staticmethod
     def build(M: np.ndarray, r: float, eta: int) -> TaylorBlock:
@@ -131,6 +139,8 @@ class TaylorBlock:
         abs_term = np.eye(k)   # |M|^i r^i / i!, a bound of |term| and of its rounding scale
         F2 = np.zeros((k, k))
         F_rest = np.zeros((k, k))
+        F_tail = np.zeros((k, k))
+        F_next = []
         tail = np.zeros((k, k))
         for i in range(1, eta + 1):
             term = term @ M * (r / i)
@@ -141,12 +151,20 @@ class TaylorBlock:
             if i == 2:
                 F2 = term * -0.25  # rho_2 = 2^-2 - 2^-1
                 F_rest += 0.25 * rounding
+                F_tail += 0.25 * rounding
             elif i > 2:
                 rho = i ** (-i / (i - 1)) - i ** (-1 / (i - 1))
                 F_rest += abs(rho) * (np.abs(term) + rounding)
+                if i <= _CENTRE_TERMS:
+                    F_next.append(rho * term)
+                    # rho * term is rounded too: one more product's worth
+                    F_tail += abs(rho) * 2 * rounding + gamma(2) * abs(rho) * np.abs(term)
+                else:
+                    F_tail += abs(rho) * (np.abs(term) + rounding)
         F_rest = up(F_rest + E)
         return TaylorBlock(F2=F2, F_rest=F_rest, F_abs=up(np.abs(F2) + F_rest),
-                           input_tail=up(tail + E * r))
+                           input_tail=up(tail + E * r), F_next=tuple(F_next),
+                           F_tail=up(F_tail + E))
 
 
 def _nonneg_product(L: np.ndarray, R: np.ndarray) -> np.ndarray:
@@ -276,9 +294,9 @@ class Propagator:
         dc, dG = 0.5 * (ch - c1), 0.5 * (Gh - G1)
         basis = self.basis
         if basis is None:
-            offset, segment, box = self._taylor_correction(ch, up(np.sum(np.abs(Gh), axis=1)),
-                                                           slice(0, ch.size))
-            gens = np.hstack([half_sum, dc[:, None], dG, segment[:, None]])
+            offset, segment, box, curve = self._taylor_correction(
+                ch, Gh, np.zeros_like(ch), slice(0, ch.size))
+            gens = np.hstack([half_sum, dc[:, None], dG, segment[:, None], curve])
             return center + offset, gens, box
         # in the block basis: the slow block and the oscillating fast blocks share the
         # interpolation parameter t / r (with their corrections); a real fast mode
@@ -286,9 +304,10 @@ class Propagator:
         # parameter and needs no correction (its difference generators are boxed)
         inv_abs = np.abs(basis.inv_mid)
         y_c = basis.to_modal(ch)
-        y_gen = up(np.sum(np.abs(basis.to_modal(Gh)), axis=1)
-                   + product_error(inv_abs, up(np.sum(np.abs(Gh), axis=1)))
+        y_G = basis.to_modal(Gh)
+        y_err = up(product_error(inv_abs, up(np.sum(np.abs(Gh), axis=1)))
                    + basis.inv_rad @ absP + product_error(inv_abs, absP))
+        y_gen = up(np.sum(np.abs(y_G), axis=1) + y_err)
         dy_c, dy_G = basis.to_modal(dc), basis.to_modal(dG)
         d_abs = up(np.abs(dc) + np.sum(np.abs(dG), axis=1))
         dy_err = up(basis.inv_rad @ d_abs + product_error(inv_abs, d_abs))
@@ -296,7 +315,7 @@ class Propagator:
         rad = np.zeros_like(y_c)
         shared = np.zeros(y_c.size, dtype=bool)
         s = basis.blocks[0]
-        offset[s], segment_s, rad[s] = self._taylor_correction(y_c, y_gen, s)
+        offset[s], segment_s, rad[s], curve_s = self._taylor_correction(y_c, y_G, y_err, s)
         shared[s] = True
         own = []  # turning pairs: their own parameter, their difference kept as vectors
         for b, blk in zip(basis.blocks[1:], self.fast, strict=True):
@@ -318,8 +337,9 @@ class Propagator:
         S = basis.S
         segment = np.zeros_like(y_c)
         segment[s] = segment_s
-        parts = [half_sum]
-        err = product_error(np.abs(S), np.abs(offset) + np.abs(segment) + rad)
+        parts = [half_sum, S[:, s] @ curve_s]
+        err = (product_error(np.abs(S), np.abs(offset) + np.abs(segment) + rad)
+               + product_error(np.abs(S[:, s]), up(np.sum(np.abs(curve_s), axis=1))))
         for cols in [shared] + own:  # Girard's hull, one interpolation parameter per group
             S_g = S[:, cols]
             parts += [basis.from_modal(dy_c[cols], cols)[:, None],
@@ -329,17 +349,35 @@ class Propagator:
         parts += [basis.from_modal(segment)[:, None], S * rad[None, :]]
         return center + basis.from_modal(offset), np.hstack(parts), up(err)
 
-    def _taylor_correction(self, y_c: np.ndarray, y_gen: np.ndarray, s: slice
-                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The slow block's ``F(t) y``: ``(offset, segment, box)`` on the coordinates ``s``.
+    def _taylor_correction(self, y_c: np.ndarray, y_G: np.ndarray, y_err: np.ndarray,
+                           s: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The slow block's ``F(t) y`` for ``y`` in ``y_c + y_G beta`` (``+- y_err``):
+        ``(offset, segment, box, curve)`` on the coordinates ``s``.
 
-        The leading term on the centre is the segment ``[rho_2 T_2 v, 0]``, i.e.
-        ``offset +- segment``; the rest is boxed."""
-        v = y_c[s]
-        f2 = 0.5 * (self.slow.F2 @ v)
-        box = up(self.slow.F_rest @ np.abs(v) + self.slow.F_abs @ y_gen[s]
-                 + product_error(np.abs(self.slow.F2), np.abs(v)))
-        return f2, f2, box
+        The leading term is ``lambda rho_2 T_2 y`` with one ``lambda`` in ``[0, 1]``: on the
+        centre the segment ``[rho_2 T_2 v, 0]``, i.e. ``offset +- segment``; on the
+        generators ``lambda rho_2 T_2 G beta``, inside the zonotope with generators
+        ``curve = rho_2 T_2 G`` (``lambda beta`` stays in the cube), which keeps the
+        generators' correlations where a box of ``|rho_2 T_2| |G|`` would not (a badly scaled
+        controller's ``T_2`` couples states by large gains). The rest is boxed."""
+        v, G = y_c[s], y_G[s]
+        slow = self.slow
+        F2 = slow.F2
+        segment = 0.5 * (F2 @ v)
+        g_abs = up(np.sum(np.abs(G), axis=1))
+        box = (slow.F_rest @ g_abs + slow.F_abs @ y_err[s]
+               + product_error(np.abs(F2), np.abs(v) + g_abs))
+        # the centre's terms i = 3 .. 5 as segments [F_i v, 0] too (one generator each),
+        # the rest boxed: the centre's absolute size would otherwise enter as a box
+        segments = [0.5 * (Fi @ v) for Fi in slow.F_next]
+        for Fi in slow.F_next:
+            box = box + product_error(np.abs(Fi), np.abs(v))
+        offset = segment + sum(segments, np.zeros_like(segment))
+        magnitude = np.abs(segment) + sum((np.abs(f) for f in segments), np.zeros_like(segment))
+        tail = slow.F_rest if slow.F_tail is None else slow.F_tail
+        box = up(box + tail @ np.abs(v) + 8 * np.finfo(float).eps * magnitude)
+        curve = np.hstack([F2 @ G] + [f[:, None] for f in segments])
+        return offset, segment, box, curve
 
     def input_set(self, W: Zonotope | None, n: int) -> tuple[np.ndarray, np.ndarray]:
         """``(generators, box)`` in state coordinates containing

@@ -147,7 +147,7 @@ class Verdict:
     >>> v = check("models/thermostat.toml", initial={"T": (19.0, 21.0)}, t_end=1.0,
     ...           safe="T <= 25", step=0.1)
     >>> v.safe, round(v.margin, 6), v.where.where()
-    (True, 2.999998, "in mode 'cool' for t in [0.5, 1]")
+    (True, 2.999999, "in mode 'cool' for t in [0.5, 1]")
     >>> v.counterexample is None, sorted(v.as_dict()["reachable_modes"])
     (True, ['cool', 'heat'])
     """
@@ -207,7 +207,7 @@ def bound_specs(specs: Iterable[Spec], reach_result: Any) -> tuple[SpecBound, ..
     >>> result = hybridlab.reach(compiled, initial={"T": (19.0, 21.0)}, t_end=1.0, step=0.1)
     >>> upper, lower = bound_specs(as_specs(["T <= 25", "heat: T >= 18"], compiled), result)
     >>> round(upper.lower, 6), upper.mode, upper.sets  # T reaches at most 22
-    (2.999998, 'cool', 16)
+    (2.999999, 'cool', 16)
     >>> round(lower.lower, 4), lower.mode, lower.sets  # only the 11 heating sets
     (1.0, 'heat', 11)
     """
