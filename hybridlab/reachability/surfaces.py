@@ -185,8 +185,12 @@ class SurfaceSteps:
         for k, side in plan.items():
             up, down = self._attraction(around, sig, k)
             if side >= 0 and rng[k, 0] < 0:
+                if not down[0] > 0:  # no approach speed known around P (NaN too)
+                    return None
                 tau += -rng[k, 0] / down[0]
             if side <= 0 and rng[k, 1] > 0:
+                if not up[1] < 0:
+                    return None
                 tau += rng[k, 1] / -up[1]
         if tau == 0.0:
             return P
@@ -301,8 +305,10 @@ def _side_range(side: float, eq: tuple[float, float] | None) -> np.ndarray:
     and the equivalent control ``eq`` clipped to ``[-1, 1]`` where the set meets the
     surface."""
     if side > 0:
-        return np.array([1.0 if eq is None else max(-1.0, min(1.0, eq[0])), 1.0])
-    return np.array([-1.0, -1.0 if eq is None else min(1.0, max(-1.0, eq[1]))])
+        lo = 1.0 if eq is None else eq[0] if eq[0] >= -1.0 else -1.0  # NaN: -1
+        return np.array([min(lo, 1.0), 1.0])
+    hi = -1.0 if eq is None else eq[1] if eq[1] <= 1.0 else 1.0      # NaN: +1
+    return np.array([-1.0, max(hi, -1.0)])
 
 
 def _widened(have: np.ndarray, need: np.ndarray) -> np.ndarray:
