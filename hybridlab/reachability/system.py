@@ -315,8 +315,8 @@ class ModeSystem:
         if any(sigma in gi.free_symbols for gi in g):
             return None
         f0 = [e.xreplace({sigma: 0}) for e in self.flow]
-        coef = [sp.Integer(int(a)) if float(a).is_integer() else sp.Float(a)
-                for a in self.switches.a[k]]
+        # the surface's own coefficients (exact, as the model states them), not their floats
+        coef = [sp.diff(self.switches.exprs[k], z) for z in self.zsyms]
         a_f0 = sp.Add(*[c * e for c, e in zip(coef, f0, strict=True) if c != 0])
         a_g = sp.Add(*[c * e for c, e in zip(coef, g, strict=True) if c != 0])
         if a_g == 0:
