@@ -66,6 +66,9 @@ __all__ = ["Item", "run_analysis"]
 
 #: a guard's crossing instant is landed on when known within this fraction of the step
 _SHARP = 1e-3
+#: a guard row's spread over a time-point set, relative to its size, below which its
+#: crossing instant may be sharp (wider rows are not landed on)
+_POINT = 1e-6
 #: the step across a landed crossing, relative to 1 + |t|
 _TINY_STEP = 1e-9
 #: shortened steps in a row at most (a rate that is not constant moves the instant)
@@ -560,6 +563,10 @@ class _Analysis:
             unmet = np.flatnonzero(rng[:, 0] <= 0)
             early = late = 0.0
             if unmet.size:
+                values = rng[unmet]
+                if np.any(values[:, 1] - values[:, 0]
+                          > _POINT * (1.0 + np.max(np.abs(values), axis=1))):
+                    continue  # a value spread over the set: no sharp instant (rates unasked)
                 rate_lo, rate_hi = self._lie(mode, tr.index)(np.r_[box[:, 0], u_lo],
                                                             np.r_[box[:, 1], u_hi])
                 if not np.all(rate_lo[unmet] > 0):
