@@ -151,15 +151,9 @@ def run_hybridlab_isolated(b: Benchmark, timeout: float, cfg_step: bool = False)
     killed on timeout.
     """
     start = time.perf_counter()
-    proc = subprocess.Popen([sys.executable, str(Path(__file__).resolve()), "--worker", b.name]
-                            + (["--cfg-step"] if cfg_step else []),
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
-    try:
-        out, err = proc.communicate(timeout=timeout)
-    except subprocess.TimeoutExpired:
-        _kill_group(proc)
-        proc.communicate()
+    proc, out, err = _run_group([sys.executable, str(Path(__file__).resolve()), "--worker",
+                                 b.name] + (["--cfg-step"] if cfg_step else []), timeout)
+    if out is None:
         return Outcome("TIMEOUT", time.perf_counter() - start,
                        f"no verdict within {timeout:g} s (process killed)")
     lines = out.strip().splitlines()
@@ -171,11 +165,22 @@ def run_hybridlab_isolated(b: Benchmark, timeout: float, cfg_step: bool = False)
                    whole=time.perf_counter() - start)
 
 
-def _kill_group(proc: subprocess.Popen) -> None:
+def _run_group(args: list[str], timeout: float | None, **popen) -> tuple[
+        subprocess.Popen, str | None, str]:
+    """Run ``args`` in a session of its own: ``(process, stdout, stderr)``, with ``stdout``
+    ``None`` when ``timeout`` ran out (the whole process group is then killed)."""
+    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True, **popen)
     try:
-        os.killpg(proc.pid, signal.SIGKILL)
-    except (ProcessLookupError, PermissionError):
-        proc.kill()
+        out, err = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            proc.kill()
+        proc.communicate()
+        return proc, None, ""
+    return proc, out, err
 
 
 def _worker(name: str, cfg_step: bool) -> int:
@@ -191,14 +196,9 @@ def run_hylaa(b: Benchmark, python: str | None, timeout: float | None) -> Outcom
     if python is None:
         return Outcome("n/a", None, "no --hylaa-python given")
     start = time.perf_counter()
-    proc = subprocess.Popen([python, str(HERE / "hylaa_models.py"), b.name],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
-    try:
-        out, err = proc.communicate(timeout=1800 if timeout is None else timeout)
-    except subprocess.TimeoutExpired:
-        _kill_group(proc)
-        proc.communicate()
+    proc, out, err = _run_group([python, str(HERE / "hylaa_models.py"), b.name],
+                                1800 if timeout is None else timeout)
+    if out is None:
         return Outcome("TIMEOUT", None, "Hylaa gave no verdict in time (process killed)")
     if proc.returncode != 0:
         return Outcome("ERROR", None, (err.strip().splitlines() or ["?"])[-1])
@@ -246,14 +246,9 @@ def run_flowstar(b: Benchmark, binary: str | None, timeout: float | None) -> Out
     with tempfile.TemporaryDirectory(prefix="flowstar-") as scratch, \
             open(HERE / "flowstar" / model) as stdin:
         start = time.perf_counter()
-        proc = subprocess.Popen([binary], stdin=stdin, stdout=subprocess.PIPE,
-                                stderr=subprocess.PIPE, text=True, cwd=scratch,
-                                start_new_session=True)
-        try:
-            out, err = proc.communicate(timeout=1800 if timeout is None else timeout)
-        except subprocess.TimeoutExpired:
-            _kill_group(proc)
-            proc.communicate()
+        proc, out, err = _run_group([binary], 1800 if timeout is None else timeout,
+                                    stdin=stdin, cwd=scratch)
+        if out is None:
             return Outcome("TIMEOUT", None, "Flow* gave no verdict in time (process killed)")
         whole = time.perf_counter() - start
     verdict, seconds, reason = parse_flowstar(out)
