@@ -234,10 +234,11 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
                         "oscillations)")
     p.add_argument("--order", type=_seconds, metavar="K",
                    help="zonotope order kept after each step (default 20)")
-    p.add_argument("--clustering", choices=("auto", "box", "none"),
+    p.add_argument("--clustering", choices=("auto", "box", "none", "sweep"),
                    help="how the step sets that hit a guard are joined (default box: all in one "
                         "box, in the state or principal axes; auto: into compact groups; "
-                        "none: not at all)")
+                        "none: not at all; sweep: one zonotope that keeps the flowpipe's "
+                        "correlations)")
     p.add_argument("--intersection", choices=("lp", "box"),
                    help="cut sets to a guard by LP (default) or by axis-aligned rows only")
     p.add_argument("--max-sets", type=_positive, dest="max_sets", metavar="N",

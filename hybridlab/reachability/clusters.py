@@ -13,6 +13,12 @@ and the source invariant and joined before the reset. Two choices shape the resu
   the pieces' centres and generators) follows it. Each piece's bounds in those axes
   are exact (LPs over the zonotope within the guard), the axes' inverse is enclosed
   in ball arithmetic, and of the two boxes the one of smaller volume is kept.
+
+  ``"sweep"`` keeps the run a zonotope instead (:func:`sweep_hull`): the flowpipe's own
+  generators, one generator along the chord of the centres (the sweep in time), and a
+  box of what is left. Every correlation the flowpipe carried survives the jump, such
+  as a tracking controller's error between a state and its reference, which a box of
+  a run a centimetre long turns into a centimetre.
 """
 
 from __future__ import annotations
@@ -22,10 +28,10 @@ from collections.abc import Sequence
 import numpy as np
 
 from hybridlab.reachability.balls import inverse_enclosure
-from hybridlab.reachability.rounding import product_error, up
+from hybridlab.reachability.rounding import U, gamma, product_error, up
 from hybridlab.reachability.sets import Box, SetError, Zonotope
 
-__all__ = ["COMPACT", "GROUP_GROWTH", "groups", "hull", "oriented_hull"]
+__all__ = ["COMPACT", "GROUP_GROWTH", "groups", "hull", "oriented_hull", "sweep_hull"]
 
 GROUP_GROWTH = 2.0
 """``"auto"`` clustering: a run of guard hits is split where joining the next piece would
@@ -55,7 +61,7 @@ def groups(pieces: list[tuple[np.ndarray, float, float]], clustering: str
     """
     if not pieces:
         return []
-    if clustering == "box":
+    if clustering in ("box", "sweep"):
         return [list(range(len(pieces)))]
     if clustering == "none":
         return [[k] for k in range(len(pieces))]
@@ -174,3 +180,56 @@ def oriented_hull(sets: Sequence[Zonotope], A: np.ndarray, b: np.ndarray,
     if not _log_volume(y_free) + np.log(det) < _log_volume(x_free):
         return whole
     return Box(y_box[:, 0], y_box[:, 1]).to_zonotope().linear_map(U)
+
+
+def sweep_hull(sets: Sequence[Zonotope]) -> Zonotope | None:
+    """A zonotope containing every zonotope of a run ``sets`` of one flowpipe, which share
+    their generators' layout: ``c + mu d + G y + diag(r) e`` (``|mu|, |y|, |e| <= 1``).
+
+    ``d`` is half the chord from the first centre to the last (the run's sweep), ``G`` the
+    middle set's generators, and ``r`` bounds, per coordinate, each set's deviation from
+    that frame: its centre's distance from the chord's line, plus ``|G_i - G|`` summed
+    over the generators (and the rounding of both). ``None`` when the layouts differ.
+
+    Examples
+    --------
+    A square carried along the diagonal while it turns slightly: the hull is the square's
+    frame plus the sweep, not the box of the run.
+
+    >>> turn = lambda a: np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+    >>> run = [Zonotope([k, k], 0.1 * turn(0.01 * k)) for k in np.linspace(0.0, 1.0, 11)]
+    >>> Z = sweep_hull(run)
+    >>> Z.generators.shape, bool(np.allclose(Z.generators[:, 0], [0.5, 0.5]))
+    ((2, 5), True)
+    >>> bool(all(Z.contains_points(Q.center + Q.generators @ np.array(v)).all()
+    ...           for Q in run for v in [[1, 1], [1, -1], [-1, 1], [-1, -1]]))
+    True
+    """
+    if not sets:
+        return None
+    shape = sets[0].generators.shape
+    if any(Z.generators.shape != shape for Z in sets):
+        return None
+    C = np.column_stack([Z.center for Z in sets])
+    mid = sets[len(sets) // 2].generators
+    base = 0.5 * (C[:, 0] + C[:, -1])
+    d = 0.5 * (C[:, -1] - C[:, 0])
+    dd = float(d @ d)
+    lam = ((C - base[:, None]).T @ d) / dd if dd > 0 else np.zeros(len(sets))
+    lo, hi = float(lam.min()), float(lam.max())
+    centre = base + 0.5 * (lo + hi) * d
+    half = 0.5 * (hi - lo)
+    r = np.zeros(C.shape[0])
+    for k, Z in enumerate(sets):
+        mu = lam[k] - 0.5 * (lo + hi)
+        off = C[:, k] - centre - mu * d  # the centre's distance from the chord's line
+        # the rounding of off: a few operations on terms of these magnitudes
+        err = gamma(6) * (np.abs(C[:, k]) + np.abs(centre) + np.abs(mu * d))
+        spread = np.sum(np.abs(Z.generators - mid), axis=1)
+        r = np.maximum(r, up(np.abs(off) + err + spread, shape[1] + 8))
+    if not (np.all(np.isfinite(r)) and np.all(np.isfinite(centre))):
+        return None
+    # the chord generator half * d: its rounding joins the box
+    chord = half * d
+    r = up(r + U * np.abs(chord) + 2 * U * (np.abs(centre) + np.abs(mid) @ np.ones(shape[1])), 4)
+    return Zonotope(centre, np.hstack([chord[:, None], mid, np.diag(r)])).compact()

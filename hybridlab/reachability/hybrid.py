@@ -51,7 +51,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from hybridlab.reachability.chain import AffineChain
-from hybridlab.reachability.clusters import groups, hull, oriented_hull
+from hybridlab.reachability.clusters import GROUP_GROWTH, groups, hull, oriented_hull, sweep_hull
 from hybridlab.reachability.linear import StepError
 from hybridlab.reachability.nonlinear import FlowStepper, RemainderError
 from hybridlab.reachability.options import ReachOptions
@@ -134,6 +134,16 @@ def _within(Z: Zonotope | None, rows: Rows) -> Zonotope | None:
         if Z is None:
             return None
     return Z
+
+
+def _frames_alike(swept: Zonotope, box: np.ndarray) -> bool:
+    """Whether a sweep hull's interval hull stays within :data:`GROUP_GROWTH` times the run's
+    box (each coordinate's width): when the run's sets do not share their generators'
+    meaning (other branches, another layout), their differences make it wider."""
+    width = box[:, 1] - box[:, 0]
+    bounds = swept.bounds()
+    scale = 1e-12 * (1.0 + np.abs(box).max(axis=1))
+    return bool(np.all(bounds[:, 1] - bounds[:, 0] <= GROUP_GROWTH * width + scale))
 
 
 def _linear_rows(*rows: Rows) -> tuple[np.ndarray, np.ndarray]:
@@ -677,7 +687,15 @@ class _Analysis:
             t_lo = min(pieces[k][1] for k in group)
             t_hi = max(pieces[k][2] for k in group)
             box = hull([pieces[k][0] for k in group])
-            if self.options.intersection == "lp":
+            swept = (sweep_hull([sets[k] for k in group])
+                     if self.options.clustering == "sweep" and len(group) > 1 else None)
+            if swept is not None and not _frames_alike(swept, box):
+                swept = None  # the sets' generators do not correspond: the box path
+            if swept is not None:
+                pre = _within(_within(swept, guard), invariant)
+                if pre is None:
+                    continue
+            elif self.options.intersection == "lp":
                 pre = oriented_hull([sets[k] for k in group], A, b, box,
                                     [pieces[k][0] for k in group])
                 if pre is None:

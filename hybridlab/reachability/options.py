@@ -7,7 +7,7 @@ from typing import Any
 
 __all__ = ["FalsifyOptions", "ReachOptions"]
 
-_CLUSTERING = ("auto", "box", "none")
+_CLUSTERING = ("auto", "box", "none", "sweep")
 
 
 @dataclass(frozen=True)
@@ -39,7 +39,7 @@ class ReachOptions:
     max_jumps : int
         Longest run of jumps followed; a branch cut here makes the result
         incomplete.
-    clustering : {"auto", "box", "none"}
+    clustering : {"auto", "box", "none", "sweep"}
         How the step sets that hit a guard (each cut to the guard and the
         invariant, as a box) are joined before the reset. ``"auto"``: consecutive
         hits form one group while the group's interval hull stays within twice its
@@ -47,6 +47,10 @@ class ReachOptions:
         set and a long sweep across the guard becomes several tight ones.
         ``"box"``: the whole run in one box (fewest branches, loosest).
         ``"none"``: one post-jump set per step (tightest, most branches).
+        ``"sweep"``: the whole run as a zonotope that keeps the flowpipe's
+        generators plus one along the sweep of its centres, so the correlations
+        between states survive the jump (a controller's tracking error stays
+        small); it is cut to the guard's and the invariant's linear rows only.
     intersection : {"lp", "box"}
         How a set that hits a guard is cut down to the guard and invariant:
         ``"lp"``: exact interval hull of the zonotope intersected with the linear

@@ -16,8 +16,8 @@ normalised time ``tau in [0, 1]`` of a step. The variables are
 
 A monomial is kept when its ``tau``-degree is at most ``kt`` and it is either free of
 ``q`` with ``s``-degree at most ``kq``, or a single ``q_i`` times ``s``-degree at most
-:data:`ERROR_CROSS_DEGREE`; every other product term is *truncated*: its range over the domain goes
-into the interval part.
+:data:`ERROR_CROSS_DEGREE`; every other product term is *truncated*: its range over the
+domain goes into the interval part.
 
 **One step** (:meth:`TaylorFlowpipe.step`, after Makino and Berz 2003 and Flow*):
 the polynomial part is ``kt`` Picard iterations ``x <- x0 + h int_0^tau f(x)`` in

@@ -420,9 +420,14 @@ def check(
         if best.open and not step_chosen:
             best = halved(best)
         if best.open and best.jumped and not clustering_chosen:
-            clustered = attempt({**best.stage, "clustering": "auto"})
-            if clustered.proved and clustered.result.complete or clustered.lower > best.lower:
-                best = clustered
+            # compact groups first; then one zonotope per run, which keeps correlations
+            for clustering in ("auto", "sweep"):
+                clustered = attempt({**best.stage, "clustering": clustering})
+                if (clustered.proved and clustered.result.complete
+                        or clustered.lower > best.lower):
+                    best = clustered
+                if not best.open:
+                    break
         # a nonlinear mode's set outgrew its linearisation part-way: Taylor models (which
         # keep the set's curvature) in one piece where they apply to that mode, then the
         # initial set in pieces, while the pieces get further
@@ -567,8 +572,11 @@ def _between_refined(first: _Attempt, attempt: Any) -> _Attempt:
 
 def _describe(stage: dict[str, Any]) -> str:
     parts = []
-    if "clustering" in stage:
+    if stage.get("clustering") == "auto":
         parts.append("the guard hits grouped into compact clusters, clustering='auto'")
+    elif "clustering" in stage:
+        parts.append(f"the guard hits joined keeping the flowpipe's generators, "
+                     f"clustering={stage['clustering']!r}")
     if "step" in stage:
         parts.append(f"step={stage['step']:.6g}")
     if "flowpipe" in stage:
