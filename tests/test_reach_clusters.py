@@ -1,5 +1,7 @@
 """Guard hits joined into one set: the sweep hull keeps the flowpipe's correlations."""
 
+from pathlib import Path
+
 import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -35,28 +37,10 @@ def test_sweep_hull_needs_one_layout():
     assert sweep_hull([]) is None
 
 
-TRACKER = '''
-name = "tracker"
-[states]
-x = { initial = 0.0 }
-y = { initial = 0.0 }
-e = { initial = 0.0 }
-[modes.go]
-flow = { x = "1", y = "1 + 2*(x - y)", e = "0" }
-[modes.latched]
-flow = { x = "1", y = "1 + 2*(x - y)", e = "0" }
-[[transitions]]
-name = "sense"
-source = "go"
-target = "latched"
-guard = "x >= 1"
-reset = { e = "x" }
-[initial]
-mode = "go"
-'''
+FOLLOWER = Path(__file__).resolve().parents[1] / "models" / "sensor_follower.toml"
 
 
-def _tracker_runs(model, corners):
+def _follower_runs(corners):
     def rhs(t, z):
         return [1.0, 1.0 + 2.0 * (z[0] - z[1]), 0.0]
 
@@ -73,7 +57,7 @@ def _tracker_runs(model, corners):
 def test_a_tracking_error_survives_the_jump_as_a_sweep():
     # y tracks x; the sensor at x = 1 fires over half a second across the initial box. A
     # box of the run loses y - x (both sweep by 0.5); the sweep hull keeps it.
-    model = hybridlab.loads_model(TRACKER)
+    model = hybridlab.load_model(FOLLOWER)
     box = {"x": (0.0, 0.5), "y": (0.0, 0.5)}
     specs = ["latched: y - x <= 0.3", "latched: x - y <= 0.3"]
     boxed = check_safety(model, initial=box, t_end=1.5, step=0.05, safe=specs,
@@ -83,5 +67,5 @@ def test_a_tracking_error_survives_the_jump_as_a_sweep():
     assert boxed.status.name == "UNKNOWN" and swept.status.name == "SAFE"
     assert swept.margin > 0.05  # |y - x| <= 0.5 e^-1 = 0.18 once latched
     r = reach(model, initial=box, t_end=1.5, step=0.05, clustering="sweep")
-    for t, z in _tracker_runs(model, [(a, b) for a in (0.0, 0.5) for b in (0.0, 0.5)]):
+    for t, z in _follower_runs([(a, b) for a in (0.0, 0.5) for b in (0.0, 0.5)]):
         assert r.covers(t, z, "latched").all()
