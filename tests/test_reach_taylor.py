@@ -172,6 +172,24 @@ def test_laub_loomis_trajectories_stay_in_the_flowpipe():
                     corners=8) == 0
 
 
+def _coupled_vdp(t, z):
+    x1, y1, x2, y2, b = z
+    return [y1, (1 - x1 ** 2) * y1 + b * (x2 - x1) - x1,
+            y2, (1 - x2 ** 2) * y2 - b * (x2 - x1) - x2, 0.0]
+
+
+def test_coupled_van_der_pol_trajectories_stay_in_the_flowpipe():
+    # CVDP23's box, the coupling b in [1, 3] a state of flow 0, over its first 1.4 s at the
+    # default step (five uncertain directions: space order 3, error terms times s)
+    x1, y1, x2, y2, b = z = sp.symbols("x1 y1 x2 y2 b")
+    flow = [y1, (1 - x1 ** 2) * y1 + b * (x2 - x1) - x1,
+            y2, (1 - x2 ** 2) * y2 - b * (x2 - x1) - x2, sp.Integer(0)]
+    box = [(1.25, 1.55), (2.35, 2.45), (1.25, 1.55), (2.35, 2.45), (1.0, 3.0)]
+    ends, segments = _pipe(flow, z, box, 0.0175, 80)
+    assert _escapes(_coupled_vdp, box, 0.0175, ends, segments, n_random=6, per_step=1,
+                    corners=10) == 0
+
+
 def test_laub_loomis_wide_box_errors_do_not_compound():
     # W = 0.1 over 8 s: the accumulated errors keep their directions (re-enclosing them
     # in one parallelepiped per step wrapped them until the step failed near t = 8.9)
