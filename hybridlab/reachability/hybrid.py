@@ -688,7 +688,7 @@ class _Analysis:
             t_hi = max(pieces[k][2] for k in group)
             box = hull([pieces[k][0] for k in group])
             swept = (sweep_hull([sets[k] for k in group])
-                     if self.options.clustering == "sweep" and len(group) > 1 else None)
+                     if self.options.clustering == "sweep" else None)
             if swept is not None and not _frames_alike(swept, box):
                 swept = None  # the sets' generators do not correspond: the box path
             if swept is not None:
