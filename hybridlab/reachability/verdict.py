@@ -419,15 +419,25 @@ def check(
     try:  # a refinement that fails leaves the result before it standing
         if best.open and not step_chosen:
             best = halved(best)
-        if best.open and best.jumped and not clustering_chosen:
+        if ((best.open or not best.result.complete and not stands) and best.jumped
+                and not clustering_chosen):
             # one zonotope per run, which keeps correlations at the cost of one set; then
-            # compact groups, more branches
-            for clustering in ("sweep", "auto"):
-                clustered = attempt({**best.stage, "clustering": clustering})
-                if (clustered.proved and clustered.result.complete
-                        or clustered.lower > best.lower):
+            # compact groups, more branches. Where a branch failed after a jump (a box of
+            # the guard hits may be what made its set too wide) only the sweep is tried,
+            # within _SWEEP_TIME_FACTOR times the failed analysis's time
+            failed = not best.result.complete
+            for clustering in ("sweep",) if failed else ("sweep", "auto"):
+                reached = best.reached(problem.t_start, problem.t_end)
+                cap = time.time() + _SWEEP_TIME_FACTOR * best.result.time_s
+                until = min(cap, deadline) if deadline is not None else cap
+                clustered = attempt({**best.stage, "clustering": clustering},
+                                    until if failed else None)
+                complete = clustered.result.complete
+                if (clustered.proved and complete or complete and clustered.lower > best.lower
+                        or not best.result.complete
+                        and clustered.reached(problem.t_start, problem.t_end) > reached):
                     best = clustered
-                if not best.open:
+                if best.proved and best.result.complete:
                     break
         # a nonlinear mode's set outgrew its linearisation part-way: Taylor models (which
         # keep the set's curvature) in one piece where they apply to that mode, then the
@@ -511,6 +521,11 @@ between step instants (the spacecraft rendezvous: two)."""
 _STEP_PATIENCE = 2
 """Halvings in a row that do not tighten the failing bound before the refinement stops
 (the bound is not monotone in the step: a finer grid meets a guard differently)."""
+
+_SWEEP_TIME_FACTOR = 3.0
+"""A result whose branch failed after a jump is tried again with ``clustering="sweep"`` for
+at most this many times its own analysis time (the sweep keeps one set per run, but where a
+model's own transitions fire together its branches can multiply)."""
 
 @dataclass(frozen=True)
 class _Attempt:
