@@ -221,7 +221,8 @@ def sweep_hull(sets: Sequence[Zonotope]) -> Zonotope | None:
     half = 0.5 * (hi - lo)
     r = np.zeros(C.shape[0])
     for k, Z in enumerate(sets):
-        mu = lam[k] - 0.5 * (lo + hi)
+        # any mu with |mu| <= half serves (off is computed from it): clipped against rounding
+        mu = min(max(lam[k] - 0.5 * (lo + hi), -half), half)
         off = C[:, k] - centre - mu * d  # the centre's distance from the chord's line
         # the rounding of off: a few operations on terms of these magnitudes
         err = gamma(6) * (np.abs(C[:, k]) + np.abs(centre) + np.abs(mu * d))

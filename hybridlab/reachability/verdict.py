@@ -428,10 +428,11 @@ def check(
             failed = not best.result.complete
             for clustering in ("sweep",) if failed else ("sweep", "auto"):
                 reached = best.reached(problem.t_start, problem.t_end)
-                cap = time.time() + _SWEEP_TIME_FACTOR * best.result.time_s
-                until = min(cap, deadline) if deadline is not None else cap
-                clustered = attempt({**best.stage, "clustering": clustering},
-                                    until if failed else None)
+                until = None
+                if failed:
+                    until = time.time() + _SWEEP_TIME_FACTOR * best.result.time_s
+                    until = until if deadline is None else min(until, deadline)
+                clustered = attempt({**best.stage, "clustering": clustering}, until)
                 complete = clustered.result.complete
                 if (clustered.proved and complete or complete and clustered.lower > best.lower
                         or not best.result.complete
