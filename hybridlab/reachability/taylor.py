@@ -182,7 +182,6 @@ class _Basis:
     exps: np.ndarray  # (M, m + n + 1) exponents; row 0 is the constant
     even: np.ndarray  # (M,) whether every s and q exponent is even (range [0, 1])
     tau: np.ndarray  # (M,) tau exponent
-    q_index: np.ndarray  # (n,) index of q_i (tau^0)
     q_groups: np.ndarray  # (n, G) indices of q_i s^alpha (tau^0), q_i first
     s_index: np.ndarray  # (m,) index of s_j (tau^0)
     keep_i: np.ndarray  # the kept products a_i b_j: i ...
@@ -197,6 +196,11 @@ class _Basis:
     @property
     def size(self) -> int:
         return self.exps.shape[0]
+
+    @property
+    def q_index(self) -> np.ndarray:
+        """(n,) index of each ``q_i`` alone (tau^0)."""
+        return self.q_groups[:, 0]
 
 
 def _codes(e: np.ndarray, m: int, n: int, kq: int) -> np.ndarray:
@@ -260,7 +264,7 @@ def _basis(m: int, n: int, kq: int, kt: int, kx: int) -> _Basis:
                  + np.arange(len(crosses))[None, :]) * T).astype(np.int64)
     M = exps.shape[0]
     return _Basis(m, n, kq, kt, exps, np.all(exps[:, :m + n] % 2 == 0, axis=1), exps[:, -1],
-                  q_groups[:, 0].copy(), q_groups, s_index, keep_i, keep_j, keep_target,
+                  q_groups, s_index, keep_i, keep_j, keep_target,
                   parity[keep_i] == parity[keep_j], parity, int(parity.max()) + 1,
                   keep_i.size < M * M,
                   int(np.max(np.bincount(keep_target, minlength=M))))
