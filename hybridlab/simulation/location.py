@@ -299,27 +299,31 @@ def first_trigger(index: int, tau: np.ndarray, phi: np.ndarray, dphi: np.ndarray
     start = 0
     t_from = float(tau[0])
     if not armed:
-        rising = np.nonzero(np.maximum(np.maximum(fa, fb), hi_val) > tol)[0]
-        limit = int(rising[0]) if rising.size else h.size
-        if floor is not None:  # only before the interval in which it re-arms
-            sinking = np.nonzero(lower[:limit] <= floor)[0]
-            trig = _search(sinking, tau, fa, fb, lo_val, lo_s, fn, t_from, floor, index, xtol,
-                           0.0)
-            if trig is not None:
+        # where it re-arms: the first instant it is above tol (an interval whose cubic
+        # promises more than the function gives does not re-arm it)
+        rearmed = False
+        start = h.size
+        for k in np.nonzero(np.maximum(np.maximum(fa, fb), hi_val) > tol)[0]:
+            peak = float(tau[k] + hi_s[k] * h[k])
+            if fa[k] > tol:
+                t_from, start = float(tau[k]), int(k)
+            elif hi_val[k] > tol and hi_s[k] < 1.0 and fn(peak) > tol:
+                t_from, start = peak, int(k)
+            elif fb[k] > tol:
+                t_from, start = float(tau[k + 1]), int(k) + 1
+            else:
+                continue
+            rearmed = True
+            break
+        if floor is not None:  # before it re-arms, sinking below the floor fires it
+            upto = start + 1 if rearmed and start < h.size and t_from > tau[start] else start
+            sinking = np.nonzero(lower[:upto] <= floor)[0]
+            trig = _search(sinking, tau, fa, fb, lo_val, lo_s, fn, float(tau[0]), floor, index,
+                           xtol, 0.0)
+            if trig is not None and (not rearmed or trig.t <= t_from):
                 return trig, False
-        if rising.size == 0:
+        if not rearmed:
             return None, False
-        start = limit
-        if fa[start] > tol:
-            t_from = float(tau[start])
-        elif hi_val[start] > tol and hi_s[start] < 1.0:
-            t_from = float(tau[start] + hi_s[start] * h[start])
-            if fn(t_from) <= tol:  # the cubic promised more than the function gives
-                t_from = float(tau[start + 1])
-                start += 1
-        else:
-            t_from = float(tau[start + 1])
-            start += 1
         if start >= h.size:
             return None, bool(phi[-1] > tol)
     candidates = np.nonzero(lower[start:] <= tol)[0] + start

@@ -603,37 +603,39 @@ def _first_trigger(model, md, p, sig, ws, step, r, tau, phi, dphi, armed, xtol, 
     start = 0
     t_from = tau[0]
     if not armed:
-        limit = K
-        rising = False
+        # where it re-arms: the first instant it is above tol (an interval whose cubic
+        # promises more than the function gives does not re-arm it)
+        rearmed = False
+        start = K
         for k in range(K):
-            if max(phi[k], phi[k + 1], hi_val[k]) > tol:
-                limit = k
-                rising = True
-                break
-        if has_floor:
+            if max(phi[k], phi[k + 1], hi_val[k]) <= tol:
+                continue
+            peak = tau[k] + hi_s[k] * (tau[k + 1] - tau[k])
+            if phi[k] > tol:
+                t_from, start = tau[k], k
+            elif (hi_val[k] > tol and hi_s[k] < 1.0
+                  and probe_value(model, pr, peak) > tol):
+                t_from, start = peak, k
+            elif phi[k + 1] > tol:
+                t_from, start = tau[k + 1], k + 1
+            else:
+                continue
+            rearmed = True
+            break
+        if has_floor:  # before it re-arms, sinking below the floor fires it
+            upto = start + 1 if rearmed and start < K and t_from > tau[start] else start
             n = 0
-            cand = np.empty(limit, dtype=np.int64)
-            for k in range(limit):
+            cand = np.empty(upto, dtype=np.int64)
+            for k in range(upto):
                 if lower[k] <= floor:
                     cand[n] = k
                     n += 1
             found, t_hit, graz = _search(model, md, p, sig, ws, step, r, cand[:n], tau, phi,
-                                         lo_val, lo_s, t_from, floor, xtol, 0.0)
-            if found:
+                                         lo_val, lo_s, tau[0], floor, xtol, 0.0)
+            if found and (not rearmed or t_hit <= t_from):
                 return True, t_hit, graz, False
-        if not rising:
+        if not rearmed:
             return False, 0.0, False, False
-        start = limit
-        if phi[start] > tol:
-            t_from = tau[start]
-        elif hi_val[start] > tol and hi_s[start] < 1.0:
-            t_from = tau[start] + hi_s[start] * (tau[start + 1] - tau[start])
-            if probe_value(model, pr, t_from) <= tol:
-                t_from = tau[start + 1]
-                start += 1
-        else:
-            t_from = tau[start + 1]
-            start += 1
         if start >= K:
             return False, 0.0, False, phi[K] > tol
     n = 0
