@@ -46,7 +46,7 @@ from hybridlab.reachability.surfaces import SurfaceSteps, signs_box
 from hybridlab.reachability.system import ModeSystem, System
 from hybridlab.reachability.taylor import TaylorError, TaylorFlowpipe, TaylorSet
 
-__all__ = ["FlowStepper", "RemainderError", "TAYLOR_APPLIES"]
+__all__ = ["FlowStepper", "RemainderError", "TAYLOR_APPLIES", "remainder_bound"]
 
 TAYLOR_APPLIES = ", or take Taylor models (flowpipe='taylor'), which apply to this mode"
 """Appended to a linearisation's failure in a mode Taylor models apply to."""
@@ -270,38 +270,85 @@ class FlowStepper(SurfaceSteps):
 
     def _remainder_bound(self, m: ModeSystem, H: Zonotope, z_star: np.ndarray, u_lo: np.ndarray,
                          u_hi: np.ndarray, u_mid: np.ndarray) -> np.ndarray:
-        box = H.bounds()
-        lo = np.r_[np.minimum(box[:, 0], z_star), u_lo]
-        hi = np.r_[np.maximum(box[:, 1], z_star), u_hi]
-        w_star = np.r_[z_star, u_mid]
-        delta = np.maximum(np.abs(lo - w_star), np.abs(hi - w_star))
-        hessian = m.hessian
-        if hessian is None:  # None only for an affine flow, which has no remainder to bound
-            raise RuntimeError(f"mode {m.name!r}: a remainder bound without a Hessian")
-        h_lo, h_hi = hessian(lo, hi)
-        nw = w_star.size
-        mag = np.maximum(np.abs(h_lo), np.abs(h_hi)).reshape(H.dim, nw, nw)
-        if not np.all(np.isfinite(mag)):
-            raise StepError(f"mode {m.name!r}: the Hessian is unbounded over the set "
-                            f"(a division by a range containing zero?)")
-        with np.errstate(over="ignore", invalid="ignore"):
-            bound = 0.5 * np.einsum("ijk,j,k->i", mag, delta, delta)
-            bound = np.minimum(bound, _quadratic_bound(
-                h_lo.reshape(H.dim, nw, nw), h_hi.reshape(H.dim, nw, nw), H, z_star,
-                0.5 * (u_hi - u_lo), delta))
+        bound = remainder_bound(m, H, z_star, u_lo, u_hi, u_mid)
         if not np.all(np.isfinite(bound)):
             raise RemainderError(f"mode {m.name!r}: the linearisation remainder overflows "
                             "(the set has blown up); lower `step` or shrink the initial set"
                             f"{self._taylor_hint()}")
+        return bound
+
+
+def remainder_bound(m: ModeSystem, H: Zonotope, z_star: np.ndarray, u_lo: np.ndarray,
+                    u_hi: np.ndarray, u_mid: np.ndarray) -> np.ndarray:
+    """A bound of ``|f(w) - f(w*) - J(w*) (w - w*)|`` per row, for ``w`` in ``H`` times the
+    input box ``[u_lo, u_hi]`` and ``w* = (z_star, u_mid)``: the least of the second-order
+    Lagrange bound over the box, the same with the set's correlations
+    (:func:`_quadratic_bound`) and the third-order one (:mod:`~hybridlab.reachability.cubic`).
+    Non-finite where the set has blown up.
+
+    Raises
+    ------
+    RemainderError
+        Where the Hessian is unbounded over the set.
+
+    Examples
+    --------
+    ``x' = x^2`` linearised at 1 over ``[0.5, 1.5]``: the remainder is ``(x - 1)^2 <= 0.25``.
+
+    >>> import sympy as sp
+    >>> from hybridlab.reachability.system import Rows
+    >>> x = sp.Symbol("x", real=True)
+    >>> m = ModeSystem("m", (x**2,), (x,), (), Rows([], (x,)), (), Rows([], (x,)))
+    >>> none = np.zeros(0)
+    >>> remainder_bound(m, Zonotope([1.0], [[0.5]]), np.array([1.0]), none, none, none)
+    array([0.25])
+    """
+    box = H.bounds()
+    lo = np.r_[np.minimum(box[:, 0], z_star), u_lo]
+    hi = np.r_[np.maximum(box[:, 1], z_star), u_hi]
+    w_star = np.r_[z_star, u_mid]
+    delta = np.maximum(np.abs(lo - w_star), np.abs(hi - w_star))
+    hessian = m.hessian
+    if hessian is None:  # None only for an affine flow, which has no remainder to bound
+        raise RuntimeError(f"mode {m.name!r}: a remainder bound without a Hessian")
+    h_lo, h_hi = hessian(lo, hi)
+    nw = w_star.size
+    mag = np.maximum(np.abs(h_lo), np.abs(h_hi)).reshape(H.dim, nw, nw)
+    if not np.all(np.isfinite(mag)):  # a set too wide for its linearisation, as a rule
+        raise RemainderError(f"mode {m.name!r}: the Hessian is unbounded over the set "
+                             f"(a division by a range containing zero?)")
+    D = _deviations(H, z_star, 0.5 * (u_hi - u_lo))
+    with np.errstate(over="ignore", invalid="ignore"):
+        bound = 0.5 * np.einsum("ijk,j,k->i", mag, delta, delta)
+        bound = np.minimum(bound, _quadratic_bound(
+            h_lo.reshape(H.dim, nw, nw), h_hi.reshape(H.dim, nw, nw), D, delta))
+        third = m.third
+        if third is not None:  # one order further: the Hessian at w* and a cubic term
+            p_lo, p_hi = hessian(w_star, w_star)
+            cubic = _quadratic_bound(p_lo.reshape(H.dim, nw, nw),
+                                     p_hi.reshape(H.dim, nw, nw), D, delta)
+            cubic = cubic + third.bound(lo, hi, D, delta, H.dim)
+            bound = np.where(cubic < bound, cubic, bound)
         return np.nextafter(bound * (1 + 1e-12), np.inf)
 
 
-def _quadratic_bound(h_lo: np.ndarray, h_hi: np.ndarray, H: Zonotope, z_star: np.ndarray,
-                     u_rad: np.ndarray, delta: np.ndarray) -> np.ndarray:
+def _deviations(H: Zonotope, z_star: np.ndarray, u_rad: np.ndarray) -> np.ndarray:
+    """``D`` with ``w - w* = D beta`` (``|beta| <= 1``) over ``H`` and the input box: the
+    set's generators, its centre's offset from ``z*`` and the input radii."""
+    nz, n_gen = H.generators.shape
+    D = np.zeros((nz + u_rad.size, n_gen + 1 + u_rad.size))
+    D[:nz, :n_gen] = H.generators
+    D[:nz, n_gen] = H.center - z_star
+    D[nz:, n_gen + 1:] = np.diag(u_rad)
+    return D[:, np.any(D != 0, axis=0)]
+
+
+def _quadratic_bound(h_lo: np.ndarray, h_hi: np.ndarray, D: np.ndarray,
+                     delta: np.ndarray) -> np.ndarray:
     """The Lagrange remainder ``1/2 d' Hess_i d`` bounded over the zonotope, not its box.
 
-    With ``d = w - w*`` over ``H`` and the input box, ``d = D beta`` (``|beta_j| <= 1``: the
-    set's generators, its centre's offset from ``z*`` and the input radii), and each Hessian
+    With ``d = w - w*`` over ``H`` and the input box, ``d = D beta`` (``|beta_j| <= 1``,
+    :func:`_deviations`), and each Hessian
     entry in ``[mid - rad, mid + rad]`` over the box, ``d' Hess_i d`` is at most
     ``sum |D' mid_i D| + |d|' rad_i |d|`` in magnitude (``|d| <= delta``). The box bound
     ``sum |Hess_i| delta delta`` is never smaller, and much larger where ``d``'s entries are
@@ -316,11 +363,6 @@ def _quadratic_bound(h_lo: np.ndarray, h_hi: np.ndarray, H: Zonotope, z_star: np
     if rows.size == 0:
         return bound
     used = np.flatnonzero(np.any(mid[rows] != 0, axis=(0, 1)))
-    G = H.generators
-    D = np.zeros((nw, G.shape[1] + 1 + u_rad.size))
-    D[:nz, :G.shape[1]] = G
-    D[:nz, G.shape[1]] = H.center - z_star
-    D[nz:, G.shape[1] + 1:] = np.diag(u_rad)
     D = D[used]
     D = D[:, np.any(D != 0, axis=0)]
     mass = np.abs(D).sum(axis=1)  # the products' magnitudes sum to mass' |M| mass

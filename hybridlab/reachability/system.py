@@ -29,6 +29,7 @@ import sympy as sp
 
 from hybridlab.model.checks import TIME
 from hybridlab.model.expressions import as_expression
+from hybridlab.reachability.cubic import ThirdOrder
 from hybridlab.symbolic.compile import CompiledModel
 from hybridlab.symbolic.discontinuities import extract_switches
 from hybridlab.symbolic.functions import _no_impulses
@@ -261,6 +262,12 @@ class ModeSystem:
         if all(e == 0 for e in entries):
             return None
         return IntervalFunction(entries, ws)
+
+    @cached_property
+    def third(self) -> ThirdOrder | None:
+        """The third derivatives of the flow, for the third-order remainder
+        (:mod:`~hybridlab.reachability.cubic`); ``None`` when all are zero."""
+        return ThirdOrder.of(self.flow, self.wsyms)
 
     @cached_property
     def affine(self) -> bool:
