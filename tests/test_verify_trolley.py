@@ -72,7 +72,7 @@ def trolley():
 def test_rail_return_and_swing_are_not_refuted_and_not_provable(trolley):
     verdict = check_safety(trolley, initial=INITIAL, params=PARAMS, t_end=3.0,
                            safe=[RAIL, RETURN, SWING], falsify_options=BUDGET,
-                           max_sets=200, max_jumps=20)
+                           max_sets=200, max_jumps=20, time_budget=4.0)
     found = verdict.falsification
     # evidence: no simulated violation, with the lowest margins seen
     assert found.counterexample is None and found.incomplete_runs == 0

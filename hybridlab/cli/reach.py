@@ -154,6 +154,8 @@ def _run(args: argparse.Namespace) -> int:
                  "time_budget"):
         if getattr(args, name) is not None:
             overrides[name] = getattr(args, name)
+    if args.observe:
+        overrides["observed"] = tuple(args.observe)
     falsify_options = FalsifyOptions(samples=args.samples, seed=args.seed)
     verdict = check(model, initial=initial, t_end=args.t_end,
                     safe=[*args.safe, *_avoid(args.avoid)], mode=args.mode,
@@ -243,6 +245,9 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
                    help="cut sets to a guard by LP (default) or by axis-aligned rows only")
     p.add_argument("--max-sets", type=_positive, dest="max_sets", metavar="N",
                    help="budget of flowpipe sets (default 200000)")
+    p.add_argument("--observe", action="append", default=[], metavar="NAME",
+                   help="a discrete variable to follow exactly although nothing reads it "
+                        "(the specs' variables always are); repeatable")
     p.add_argument("--workers", type=_positive, default=1, metavar="N",
                    help="processes analysing the --split pieces (default 1: serially)")
     p.add_argument("--scenario")

@@ -29,7 +29,7 @@ from hybridlab.simulation.executors import (
 from hybridlab.simulation.problem import HybridProblem, ProblemError
 from hybridlab.symbolic.compile import CompiledModel
 
-__all__ = ["ReachError", "default_step", "reach"]
+__all__ = ["ReachError", "check_observed", "default_step", "reach"]
 
 
 class ReachError(HybridlabError, ValueError):
@@ -176,6 +176,7 @@ def reach(
         P0 = X0
 
     opts = (options or ReachOptions()).updated(**option_overrides)
+    check_observed(compiled, opts.observed)
     if opts.step is None:
         opts = opts.updated(step=default_step(system, t_end - t0, opts.dwell))
     if opts.time_budget is not None and opts.deadline is None:
@@ -202,6 +203,27 @@ def reach(
     finally:
         placement.shutdown()
     return merge_results(results)
+
+
+def check_observed(compiled: CompiledModel, names: Sequence[str]) -> None:
+    """Raise :class:`ReachError` for a name in ``observed`` that the model does not have.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> ball = hybridlab.compile_model(hybridlab.load_model("models/bouncing_ball.toml"))
+    >>> check_observed(ball, ["h", "e"])
+    >>> try:
+    ...     check_observed(ball, ["height"])
+    ... except ReachError as exc:
+    ...     print(exc)
+    observed: unknown name 'height'; expected a state or parameter of the model
+    """
+    known = {*compiled.state_names, *compiled.parameter_names, "t"}
+    unknown = [name for name in names if name not in known]
+    if unknown:
+        raise ReachError(f"observed: unknown name {unknown[0]!r}; expected a state or "
+                         f"parameter of the model")
 
 
 _DEFAULT_STEPS = 400     # steps over the horizon by default

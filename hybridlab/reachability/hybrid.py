@@ -57,6 +57,7 @@ from hybridlab.reachability.nonlinear import FlowStepper, RemainderError
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.result import ReachResult, ReachSet, _Context
 from hybridlab.reachability.sets import Box, SetError, Zonotope
+from hybridlab.reachability.slicing import Slice, unread_outputs
 from hybridlab.reachability.spec import Spec, lowers_on
 from hybridlab.reachability.system import Rows, System
 from hybridlab.simulation.rules import SCHEDULE_SLACK, schedule_index
@@ -224,8 +225,9 @@ class _Analysis:
         self.next_id = 0
         self.queue: list[tuple[float, int, Item]] = []
         self.lie: dict[tuple[str, int], IntervalFunction] = {}
+        self.sliced = unread_outputs(system, options.observed)
         self.schedules = {tr.index: tr.period_and_phase(p) for tr in self.compiled.transitions
-                          if tr.scheduled}
+                          if tr.scheduled and tr.index not in self.sliced.transitions}
         self.use_fixpoint = (options.fixpoint and not system.timed
                              and not any(v is not None for v in self.schedules.values()))
         self.context = _Context(
@@ -330,7 +332,8 @@ class _Analysis:
         cmode = self.compiled.modes[item.mode]
         stepper = self.stepper(item.mode)
         stepper.reset()
-        guarded = [tr for tr in cmode.outgoing if not tr.scheduled]
+        guarded = [tr for tr in cmode.outgoing
+                   if not tr.scheduled and tr.index not in self.sliced.transitions]
         scheduled = [tr for tr in cmode.outgoing
                      if tr.scheduled and self.schedules.get(tr.index) is not None]
         exact_time = item.t_lo == item.t_hi
@@ -810,6 +813,23 @@ class _Unproved(_Budget):
         self.between = between
 
 
+def _widened(P0: Zonotope, sliced: Slice) -> Zonotope:
+    """``P0`` with each unread variable's dimension replaced by its hull (and no longer
+    correlated with the others: nothing reads it)."""
+    if not sliced.hulls:
+        return P0
+    box = P0.bounds()
+    lo, hi = sliced.widen(box[:, 0], box[:, 1])
+    rows = list(sliced.hulls)
+    c, G = P0.center.copy(), P0.generators.copy()
+    G[rows] = 0.0
+    c[rows] = 0.5 * (lo[rows] + hi[rows])
+    E = np.zeros((P0.dim, len(rows)))
+    E[rows, range(len(rows))] = np.nextafter(np.maximum(hi[rows] - c[rows], c[rows] - lo[rows]),
+                                             np.inf)
+    return Zonotope(c, np.hstack([G, E]))
+
+
 def run_analysis(system: System, options: ReachOptions, mode: str, P0: Zonotope,
                  t_start: float, t_end: float, p: np.ndarray,
                  stop_unproved: Sequence[Spec] = ()) -> ReachResult:
@@ -836,7 +856,7 @@ def run_analysis(system: System, options: ReachOptions, mode: str, P0: Zonotope,
     """
     started = _time.perf_counter()
     analysis = _Analysis(system, options, t_start, t_end, p, stop_unproved)
-    analysis.push(None, mode, P0, t_start, t_start, 0)
+    analysis.push(None, mode, _widened(P0, analysis.sliced), t_start, t_start, 0)
     stopped = between = False
     try:
         analysis.run()

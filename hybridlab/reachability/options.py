@@ -88,6 +88,14 @@ class ReachOptions:
         switching functions and without time-varying inputs (others keep
         zonotopes); they follow wide initial sets of strongly nonlinear flows in
         one piece, at a higher cost per step. Affine modes are exact either way.
+    observed : tuple of str
+        Discrete variables to follow exactly although nothing in the model reads them.
+        Others that nothing reads (a sensor's output that the logic does not use) are
+        left out with the transitions that only set them, which keep the mode: each
+        such transition would otherwise double the branches wherever it may fire. Such a
+        variable is reported over the hull of its initial value and every constant its
+        transitions assign (:mod:`hybridlab.reachability.slicing`).
+        :func:`hybridlab.verify.check_safety` adds the variables its specs read.
     split : int
         Split the initial set into this many pieces along each of its
         generators (each uncertain initial state or parameter) and analyse
@@ -116,6 +124,7 @@ class ReachOptions:
     time_budget: float | None = None
     progress: bool | None = None
     deadline: float | None = None
+    observed: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if self.step is not None and not (float(self.step) > 0 and float(self.step) < 1e300):
@@ -144,6 +153,9 @@ class ReachOptions:
             raise ValueError(f"flowpipe must be 'zonotope' or 'taylor' (got {self.flowpipe!r})")
         if not 0 <= self.bloat < 1e-3:
             raise ValueError(f"bloat must be in [0, 1e-3) (got {self.bloat!r})")
+        if isinstance(self.observed, str) or not all(isinstance(n, str) for n in self.observed):
+            raise ValueError(f"observed must be a sequence of names (got {self.observed!r})")
+        object.__setattr__(self, "observed", tuple(self.observed))
         if self.time_budget is not None and not (0 < float(self.time_budget) < 1e300):
             raise ValueError(f"time_budget must be a positive number of seconds "
                              f"(got {self.time_budget!r})")

@@ -306,6 +306,10 @@ def check(
     specs = as_specs(safe, compiled)
     if not specs:
         raise ValueError("safe: give at least one spec or region to avoid")
+    observed = (options or ReachOptions()).updated(**reach_overrides).observed
+    if observed:  # a misspelt name fails before any work
+        from hybridlab.reachability.api import check_observed  # the flowpipes: a sibling
+        check_observed(compiled, observed)
     texts = tuple(s.text for s in specs)
 
     search = FalsificationSearch(problem, specs, falsify_options)
@@ -331,6 +335,10 @@ def check(
         options is not None and getattr(options, "clustering", "box") != "box")
     step_chosen = "step" in reach_overrides or getattr(options, "step", None) is not None
     overrides = dict(reach_overrides)
+    read = {str(s) for spec in specs for rows in spec.rows.values() for e in rows
+            for s in e.free_symbols}  # what the specs read is followed exactly
+    overrides["observed"] = tuple(sorted(
+        read.union(overrides.get("observed", getattr(options, "observed", ())))))
     dwell_known = "dwell" in overrides or getattr(options, "dwell", None) is not None
     budget = overrides.get("time_budget", getattr(options, "time_budget", None))
     deadline = overrides.get("deadline", getattr(options, "deadline", None))
@@ -441,8 +449,9 @@ def check(
                 if best.proved and best.result.complete:
                     break
         # a nonlinear mode's set outgrew its linearisation part-way: Taylor models (which
-        # keep the set's curvature) in one piece where they apply to that mode, then the
-        # initial set in pieces, while the pieces get further
+        # keep the set's curvature) in one piece where they apply to that mode, else a
+        # smaller step while the flowpipe gets further; then the initial set in pieces,
+        # while the pieces get further
         reached = best.reached(problem.t_start, problem.t_end)
         if best.result.too_wide and not flowpipe_chosen and any(
                 TAYLOR_APPLIES in r for r in best.result.incomplete_reasons):
@@ -453,6 +462,22 @@ def check(
             if (taylor.proved and taylor.result.complete or further > reached
                     or taylor.result.complete and taylor.lower > best.lower):
                 best, reached = taylor, further
+        elif best.result.too_wide and not step_chosen:
+            # no Taylor models for that mode: the remainder shrinks with the step
+            step, stalled = best.step, 0
+            for _ in range(_STEP_HALVINGS):
+                step /= 2
+                finer = attempt({**best.stage, "step": step})
+                further = finer.reached(problem.t_start, problem.t_end)
+                if not (finer.proved and finer.result.complete or further > reached):
+                    stalled += 1
+                    if stalled == _STEP_PATIENCE:
+                        break
+                    continue
+                best, reached, stalled = finer, further, 0
+                if not best.result.too_wide:
+                    best = halved(best) if best.open else best
+                    break
         if best.result.too_wide and reached >= _SPLIT_PROGRESS and not split_chosen:
             for k in _SPLITS:
                 if k ** problem.dims > _MAX_SPLIT_PIECES:
