@@ -307,3 +307,23 @@ def test_imports_are_relative_and_a_cycle_is_an_error(tmp_path: Path) -> None:
     lib_a, lib_b = str(tmp_path / "lib" / "a.toml"), str(tmp_path / "lib" / "b.toml")
     assert str(info.value) == (f"{lib_b}: imports[0]: import cycle (token "
                                f"'{lib_a} -> {lib_b} -> {lib_a}')")
+
+
+def test_a_flat_mode_may_hold_the_separator_in_its_name():
+    """A flat model's mode named like a product (``a|b``) is its own target, not parts."""
+    model = hybridlab.loads_model('''
+name = "flat"
+states = { x = 1.0 }
+[modes."a|b"]
+flow = { x = "-x" }
+[[transitions]]
+name = "again"
+source = "a|b"
+target = "a|b"
+guard = "x <= 0.5"
+reset = { x = "1" }
+[initial]
+mode = "a|b"
+''')
+    compiled = hybridlab.compile_model(model)
+    assert [(tr.source, tr.target) for tr in compiled.transitions] == [("a|b", "a|b")]

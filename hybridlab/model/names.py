@@ -114,12 +114,15 @@ def mode_target(source: str, target: str) -> str:
     ('a.on|b.on', 'a.on|b.off')
     >>> mode_target("fall", "rise")
     'rise'
+    >>> mode_target("a|b", "a|b")  # a mode of a flat model whose name has the separator
+    'a|b'
     """
     if target == "*":
         return source
     parts = mode_parts(source)
     changes = mode_parts(target)
-    if SEPARATOR not in source or not changes.keys() <= parts.keys():
+    product = all("." in part for part in source.split(SEPARATOR))
+    if SEPARATOR not in source or not product or not changes.keys() <= parts.keys():
         return target
     parts.update(changes)
     return SEPARATOR.join(parts.values())
