@@ -298,7 +298,8 @@ def check(
     ('UNSAFE', {'T': 20.0}, 0.253178)
     """
     check_executor(executor)
-    (options or ReachOptions()).updated(**reach_overrides)  # a misspelt option fails first
+    # a misspelt option fails first
+    resolved = (options or ReachOptions()).updated(**reach_overrides)
     started = time.perf_counter()
     problem = HybridProblem.build(model, t_end, initial=initial, mode=mode, scenario=scenario,
                                   params=params, inputs=inputs, options=simulation)
@@ -306,10 +307,9 @@ def check(
     specs = as_specs(safe, compiled)
     if not specs:
         raise ValueError("safe: give at least one spec or region to avoid")
-    observed = (options or ReachOptions()).updated(**reach_overrides).observed
-    if observed:  # a misspelt name fails before any work
+    if resolved.observed:  # a misspelt name fails before any work
         from hybridlab.reachability.api import check_observed  # the flowpipes: a sibling
-        check_observed(compiled, observed)
+        check_observed(compiled, resolved.observed)
     texts = tuple(s.text for s in specs)
 
     search = FalsificationSearch(problem, specs, falsify_options)
@@ -337,8 +337,7 @@ def check(
     overrides = dict(reach_overrides)
     read = {str(s) for spec in specs for rows in spec.rows.values() for e in rows
             for s in e.free_symbols}  # what the specs read is followed exactly
-    overrides["observed"] = tuple(sorted(
-        read.union(overrides.get("observed", getattr(options, "observed", ())))))
+    overrides["observed"] = tuple(sorted(read.union(resolved.observed)))
     dwell_known = "dwell" in overrides or getattr(options, "dwell", None) is not None
     budget = overrides.get("time_budget", getattr(options, "time_budget", None))
     deadline = overrides.get("deadline", getattr(options, "deadline", None))
