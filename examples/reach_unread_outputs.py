@@ -1,10 +1,11 @@
 """A sensor output nothing reads: left out of the flowpipe, followed only where observed.
 
-A follower tracks a leader (``y' = 1 + 2 (x - y)``, ``x' = 1``) from ``x``, ``y`` in
-[0, 0.1]; a light barrier around ``x = 1`` sets ``seen`` while the leader is within 0.1 of
-it and clears it after. Nothing in the model reads ``seen``. Each of the barrier's two
-transitions fires at an instant the initial box makes uncertain, so followed, each is a
-branch that may or may not have jumped, and the joined crossings jump again and again.
+In ``models/barrier_follower.toml`` a follower tracks a leader (``y' = 1 + 2 (x - y)``,
+``x' = 1``) from ``x``, ``y`` in [0, 0.1]; a light barrier around ``x = 1`` sets ``seen``
+while the leader is within 0.1 of it and clears it after. Nothing in the model reads
+``seen``. Each of the barrier's two transitions fires at an instant the initial box makes
+uncertain, so followed, each is a branch that may or may not have jumped, and the joined
+crossings jump again and again.
 Left out (the default, see ``docs/verification.md``, "Outputs nothing reads are left
 out"), the flowpipe is one branch and ``seen`` lies in ``[0, 1]`` throughout. Checks:
 
@@ -22,35 +23,14 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 import numpy as np
 
 import hybridlab
 from hybridlab.verify import check_safety
 
-MODEL = """
-name = "barrier_follower"
-description = "a follower tracks a leader; a light barrier around p shows the leader in seen"
-parameters = { k = 2.0, p = 1.0, w = 0.1 }
-states = { x = 0.0, y = 0.0 }
-discrete = { seen = false }
-[modes.run]
-flow = { x = "1", y = "1 + k*(x - y)" }
-[[transitions]]
-name = "on"
-source = "run"
-target = "run"
-guard = ["seen <= 0.5", "abs(x - p) <= w"]
-reset = { seen = "1" }
-[[transitions]]
-name = "off"
-source = "run"
-target = "run"
-guard = ["seen >= 0.5", "abs(x - p) >= w"]
-reset = { seen = "0" }
-[initial]
-mode = "run"
-"""
+MODEL = Path(__file__).resolve().parents[1] / "models" / "barrier_follower.toml"
 BOX = {"x": (0.0, 0.1), "y": (0.0, 0.1)}
 SPECS = ["y - x <= 0.3", "x - y <= 0.3"]
 
@@ -59,7 +39,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--plot", metavar="FILE.png")
     args = parser.parse_args(argv)
-    model = hybridlab.compile_model(hybridlab.loads_model(MODEL))
+    model = hybridlab.compile_model(hybridlab.load_model(MODEL))
     verdicts = {}
     for label, observed in (("left out", ()), ("followed", ("seen",))):
         v = check_safety(model, initial=BOX, t_end=2.0, step=0.01, safe=SPECS,

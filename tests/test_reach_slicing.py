@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -13,34 +15,18 @@ from hybridlab.verify import check_safety
 
 #: a follower behind a leader; a light barrier around p sets ``seen`` while the leader
 #: is within w of it; nothing reads ``seen``
-BARRIER = """
-name = "barrier"
-parameters = { k = 2.0, p = 1.0, w = 0.1 }
-states = { x = 0.0, y = 0.0 }
-discrete = { seen = false, count = 0 }
-[modes.run]
-flow = { x = "1", y = "1 + k*(x - y)" }
-[[transitions]]
-name = "on"
-source = "run"
-target = "run"
-guard = ["seen <= 0.5", "abs(x - p) <= w"]
-reset = { seen = "1" }
-[[transitions]]
-name = "off"
-source = "run"
-target = "run"
-guard = ["seen >= 0.5", "abs(x - p) >= w"]
-reset = { seen = "0", count = "count + 1" }
-[initial]
-mode = "run"
-"""
+BARRIER = (Path(__file__).resolve().parents[1] / "models" / "barrier_follower.toml").read_text()
+#: the same barrier also counting its passages (``count = count + 1`` reads itself)
+COUNTING = (BARRIER
+            .replace("seen = { value = false,", 'count = { value = 0, type = "int" }\n'
+                                                "seen = { value = false,")
+            .replace('reset = { seen = "0" }', 'reset = { seen = "0", count = "count + 1" }'))
 INITIAL = {"x": (-0.05, 0.05)}
 
 
 @pytest.fixture(scope="module")
 def barrier():
-    return hybridlab.compile_model(hybridlab.loads_model(BARRIER))
+    return hybridlab.compile_model(hybridlab.loads_model(COUNTING))
 
 
 def test_a_counter_that_reads_itself_keeps_its_transition(barrier):
@@ -53,7 +39,7 @@ def test_a_counter_that_reads_itself_keeps_its_transition(barrier):
 
 
 def test_unread_flag_is_left_out_soundly_and_followed_where_observed(barrier):
-    model = hybridlab.loads_model(BARRIER.replace(', count = "count + 1"', ""))
+    model = hybridlab.loads_model(BARRIER)
     sliced = reach(model, initial=INITIAL, t_end=2.0, step=0.01)
     assert sliced.complete, sliced.incomplete_reasons
     assert len(sliced.sets) == 200  # one flowpipe
@@ -79,7 +65,7 @@ def test_unread_flag_is_left_out_soundly_and_followed_where_observed(barrier):
 def test_a_spec_that_reads_the_flag_keeps_it_followed():
     """``seen - x <= 0.6`` holds before the barrier (seen is 0) but not over seen in
     [0, 1] at t = 0: check_safety follows what its specs read."""
-    model = hybridlab.loads_model(BARRIER.replace(', count = "count + 1"', ""))
+    model = hybridlab.loads_model(BARRIER)
     verdict = check_safety(model, initial=INITIAL, t_end=0.8, safe="seen - x <= 0.6",
                            step=0.01)
     assert verdict.status.name == "SAFE", verdict.reason

@@ -61,31 +61,6 @@ class Slice:
         return lo, hi
 
 
-#: the model of the examples: a leader ``x``, and a barrier around ``p`` that sets ``seen``
-_BARRIER = """
-name = "barrier"
-parameters = { p = 1.0, w = 0.1 }
-states = { x = 0.0 }
-discrete = { seen = false }
-[modes.run]
-flow = { x = "1" }
-[[transitions]]
-name = "on"
-source = "run"
-target = "run"
-guard = ["seen <= 0.5", "abs(x - p) <= w"]
-reset = { seen = "1" }
-[[transitions]]
-name = "off"
-source = "run"
-target = "run"
-guard = ["seen >= 0.5", "abs(x - p) >= w"]
-reset = { seen = "0" }
-[initial]
-mode = "run"
-"""
-
-
 def _writes(exprs: tuple[sp.Expr, ...], zsyms: tuple[sp.Symbol, ...], n: int) -> set[int]:
     return {i for i in range(n) if exprs[i] != zsyms[i]}
 
@@ -101,12 +76,12 @@ def unread_outputs(system: System, observed: Iterable[str] = ()) -> Slice:
 
     Examples
     --------
-    A light barrier whose output ``seen`` nothing reads (the logic would watch ``x``
-    itself): its two transitions are left out, and ``seen`` starts in ``[0, 1]``:
+    A light barrier whose output ``seen`` nothing reads: its two transitions are left out,
+    and ``seen`` starts in ``[0, 1]``:
 
     >>> import hybridlab
     >>> from hybridlab.reachability.system import build_system
-    >>> c = hybridlab.compile_model(hybridlab.loads_model(_BARRIER))
+    >>> c = hybridlab.compile_model(hybridlab.load_model("models/barrier_follower.toml"))
     >>> system = build_system(c, c.parameter_vector(), {}, {})
     >>> cut = unread_outputs(system)
     >>> sorted(c.transitions[i].name for i in cut.transitions)
