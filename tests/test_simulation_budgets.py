@@ -97,7 +97,10 @@ def test_the_step_budget_bounds_a_run_to_a_huge_horizon(backend):
 def test_the_wall_clock_limit_stops_a_run(backend):
     result = hybridlab.simulate(OSCILLATOR, t_end=1e300, time_limit=0.3, backend=backend)
     assert result.status is Status.TIME_LIMIT and "time_limit = 0.3 s" in result.message
-    assert result.final.state["x"] == pytest.approx(math.cos(result.final.t), abs=1e-4)
+    # the run keeps the oscillator's state; its phase error grows with the time reached (a
+    # compiled run reaches t = 1.4e5 in 0.3 s on a fast machine, 9.5e-5 off)
+    assert result.final.state["x"] == pytest.approx(math.cos(result.final.t),
+                                                    abs=1e-4 + 2e-9 * result.final.t)
 
 
 def test_a_step_too_small_for_the_horizon_is_refused_before_running():
