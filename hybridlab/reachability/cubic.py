@@ -56,7 +56,8 @@ class ThirdOrder:
         How many orderings of ``(j, k, l)`` the entry stands for (1, 3 or 6).
     group : numpy.ndarray of int
         For each entry, its linear form ``L_jk`` of row ``i``.
-    n_groups : int
+    group_rows : numpy.ndarray of int
+        The row ``i`` of each linear form.
 
     Examples
     --------
@@ -81,7 +82,7 @@ class ThirdOrder:
     linear: np.ndarray
     multiplicity: np.ndarray
     group: np.ndarray
-    n_groups: int
+    group_rows: np.ndarray
 
     @staticmethod
     def of(flow: list[sp.Expr] | tuple[sp.Expr, ...],
@@ -129,7 +130,8 @@ class ThirdOrder:
             function=IntervalFunction([e for *_, e in entries], ws),
             rows=np.array(rows), first=np.array(first), second=np.array(second),
             linear=np.array(linear), multiplicity=np.array(mult),
-            group=np.array([index[key] for key in keys]), n_groups=len(index))
+            group=np.array([index[key] for key in keys]),
+            group_rows=np.array([key[0] for key in index], dtype=int))
 
     def bound(self, lo: np.ndarray, hi: np.ndarray, D: np.ndarray, delta: np.ndarray,
               n_rows: int) -> np.ndarray:
@@ -144,15 +146,13 @@ class ThirdOrder:
         j, k, m = self.first, self.second, self.linear
         with np.errstate(over="ignore", invalid="ignore"):
             np.add.at(out, self.rows, self.multiplicity * rad * delta[j] * delta[k] * delta[m])
-            coef = np.zeros((self.n_groups, D.shape[0]))
+            coef = np.zeros((self.group_rows.size, D.shape[0]))
             np.add.at(coef, (self.group, m), self.multiplicity * mid)
             forms = np.abs(coef @ D).sum(axis=1)
             # rounding of the products, relative to the products of magnitudes
             forms += 1e-10 * (np.abs(coef) @ np.abs(D)).sum(axis=1)
-            pair = np.zeros(self.n_groups)
+            pair = np.zeros(self.group_rows.size)
             pair[self.group] = delta[j] * delta[k]
-            group_row = np.zeros(self.n_groups, dtype=int)
-            group_row[self.group] = self.rows
-            np.add.at(out, group_row, forms * pair)
+            np.add.at(out, self.group_rows, forms * pair)
         return np.nextafter(out / 6.0 * (1 + 1e-12), np.inf)
 
