@@ -197,6 +197,10 @@ def _positive(text: str) -> int:
     return value
 
 
+def _split(text: str) -> int | str:
+    return "auto" if text.strip() == "auto" else _positive(text)
+
+
 def add_parser(sub: Any) -> argparse.ArgumentParser:
     """Add ``reach`` to the subparsers ``sub`` of the main command line; its parser.
 
@@ -226,8 +230,9 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--avoid", action="append", metavar="NAME=LO:HI[,...]",
                    help="a box of states to avoid; repeatable")
     p.add_argument("--max-jumps", type=int, dest="max_jumps")
-    p.add_argument("--split", type=_positive, metavar="K",
-                   help="analyse K pieces along each uncertain direction of the initial set")
+    p.add_argument("--split", type=_split, metavar="K|auto",
+                   help="analyse K pieces along each uncertain direction of the initial set; "
+                        "auto: bisect only the pieces that fail, where their set bends most")
     p.add_argument("--time-budget", type=_seconds, dest="time_budget", metavar="SECONDS",
                    help="stop the reachability analysis after this long: UNKNOWN with the "
                         "tightest bound so far")

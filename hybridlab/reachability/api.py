@@ -12,6 +12,7 @@ import numpy as np
 from hybridlab.errors import HybridlabError
 from hybridlab.model.expressions import as_expression
 from hybridlab.model.schema import Model
+from hybridlab.reachability.bisection import bisect
 from hybridlab.reachability.hybrid import run_analysis
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.result import ReachResult, merge_results
@@ -86,7 +87,8 @@ def reach(
         Settings; keyword arguments override its fields (``step=0.01``,
         ``max_jumps=10``, ...).
     executor : optional
-        Where the pieces of a split initial set (``split > 1``) are analysed:
+        Where the pieces of a split initial set (``split > 1`` or ``"auto"``, a
+        round of pieces at a time) are analysed:
         ``None`` or ``"serial"`` (in this process, one after another),
         ``"threads"``, ``"processes"``, an int ``N`` (a process pool of ``N``
         workers), any :class:`concurrent.futures.Executor` or a
@@ -184,25 +186,30 @@ def reach(
     stop = tuple(stop_unproved)
     if opts.split == 1:
         return run_analysis(system, opts, mode, P0, t0, t_end, p, stop)
-    pieces = _split(P0, opts.split)
-    if len(pieces) == 1:
+    pieces = [P0] if opts.split == "auto" else _split(P0, int(opts.split))
+    if len(pieces) == 1 and opts.split != "auto":
         return run_analysis(system, opts, mode, pieces[0], t0, t_end, p, stop)
-    placement = place("serial" if executor is None else executor, len(pieces), ReachError)
+    workers = opts.max_pieces if opts.split == "auto" else len(pieces)
+    placement = place("serial" if executor is None else executor, workers, ReachError)
+
+    def analyse(pieces: list[Zonotope]) -> list[ReachResult]:
+        if placement.executor is None or len(pieces) == 1:
+            return [run_analysis(system, opts, mode, piece, t0, t_end, p, stop)
+                    for piece in pieces]
+        if placement.in_process:  # threads share the system: nothing is pickled
+            return _gather([placement.executor.submit(run_analysis, system, opts, mode,
+                                                      piece, t0, t_end, p, stop)
+                            for piece in pieces])
+        return _gather([placement.executor.submit(run_piece, task) for task in
+                        _tasks(compiled, p, uncertain, bounded, opts, mode,
+                               pieces, t0, t_end, stop)])
+
     try:
-        if placement.executor is None:
-            results = [run_analysis(system, opts, mode, piece, t0, t_end, p, stop)
-                       for piece in pieces]
-        elif placement.in_process:  # threads share the system: nothing is pickled
-            results = _gather([placement.executor.submit(run_analysis, system, opts, mode,
-                                                         piece, t0, t_end, p, stop)
-                               for piece in pieces])
-        else:
-            results = _gather([placement.executor.submit(run_piece, task) for task in
-                               _tasks(compiled, p, uncertain, bounded, opts, mode,
-                                      pieces, t0, t_end, stop)])
+        if opts.split == "auto":
+            return bisect(analyse, P0, opts.max_pieces, opts.deadline)
+        return merge_results(analyse(pieces))
     finally:
         placement.shutdown()
-    return merge_results(results)
 
 
 def check_observed(compiled: CompiledModel, names: Sequence[str]) -> None:

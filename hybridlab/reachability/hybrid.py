@@ -239,6 +239,7 @@ class _Analysis:
             t_index=system.time_index)
         self.n = system.n_states
         self.no_rows = Rows([], system.zsyms)
+        self.split_direction: np.ndarray | None = None  # see ReachResult.split_direction
 
     # ----- waiting list -------------------------------------------------------------------
     def push(self, parent: int | None, mode: str, P: Zonotope, t_lo: float, t_hi: float,
@@ -297,6 +298,7 @@ class _Analysis:
         for spec, lower in zip(self.stop_unproved, lowers_on(self.stop_unproved, rs),
                                strict=True):
             if lower is not None and not spec.holds(lower):
+                self._note_bend(item)
                 raise _Unproved(self._between(item, spec, ends, rs.t),
                                 f"stopped at the first set that does not prove spec "
                                 f"{spec.text!r} (t in [{rs.t[0]:.6g}, {rs.t[1]:.6g}] in mode "
@@ -401,6 +403,7 @@ class _Analysis:
                 text = f"mode {item.mode!r} at t = {start_lo:.6g}: {exc}"
                 if isinstance(exc, RemainderError):
                     self.too_wide.add(text)
+                    self._note_bend(item)
                 self._reason(text)
                 break
             t0 = start_lo
@@ -448,6 +451,12 @@ class _Analysis:
         for tr in guarded:
             if clusters[tr.index]:
                 self._jump(item, tr, clusters[tr.index])
+
+    def _note_bend(self, item: Item) -> None:
+        """Keep where the root item's Taylor model bends most, as the analysis ends there."""
+        stepper = self.steppers.get(item.mode)
+        if item.parent is None and stepper is not None:
+            self.split_direction = stepper.bent_direction(item.P)
 
     def _between(self, item: Item, spec: Spec, ends: tuple[Zonotope, Zonotope | None] | None,
                  t: tuple[float, float]) -> bool:
@@ -867,4 +876,4 @@ def run_analysis(system: System, options: ReachOptions, mode: str, P0: Zonotope,
     if analysis.shown:
         print(file=sys.stderr)  # end the progress line
     return replace(analysis.finish(started), stopped_unproved=stopped,
-                   unproved_between_steps=between)
+                   unproved_between_steps=between, split_direction=analysis.split_direction)

@@ -44,7 +44,7 @@ from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.sets import Zonotope
 from hybridlab.reachability.surfaces import SurfaceSteps, signs_box
 from hybridlab.reachability.system import ModeSystem, System
-from hybridlab.reachability.taylor import TaylorError, TaylorFlowpipe, TaylorSet
+from hybridlab.reachability.taylor import TaylorError, TaylorFlowpipe, TaylorSet, bend
 
 __all__ = ["FlowStepper", "RemainderError", "TAYLOR_APPLIES", "remainder_bound"]
 
@@ -105,6 +105,9 @@ class FlowStepper(SurfaceSteps):
         self._taylor_sought = False
         self._taylor_set: TaylorSet | None = None
         self._taylor_end: Zonotope | None = None
+        # the zonotope the Taylor model started from, and where the last one bent most
+        self._taylor_origin: Zonotope | None = None
+        self._failed_bend: tuple[Zonotope, np.ndarray] | None = None
 
     def reduce(self, Z: Zonotope, order: float) -> Zonotope:
         """``Z`` reduced to ``order``; for an affine mode, boxed in its eigenvector basis
@@ -126,6 +129,7 @@ class FlowStepper(SurfaceSteps):
         self._remainders.clear()
         self._chain = None
         self._taylor_set = self._taylor_end = None
+        self._taylor_origin = self._failed_bend = None
 
     def _sigma_signs(self, Z: Zonotope) -> np.ndarray:
         """+1/-1 where the switching function has that sign over ``Z``, 0 where free."""
@@ -197,7 +201,7 @@ class FlowStepper(SurfaceSteps):
         if self.n_sigma or m.affine or any(e.free_symbols & set(m.usyms) for e in m.flow):
             return None
         try:
-            self._taylor = TaylorFlowpipe(m.flow, m.zsyms)
+            self._taylor = TaylorFlowpipe(m.flow, m.zsyms, self.options.taylor_order)
         except TaylorError:
             return None  # an operation Taylor models do not support: linearisation
         return self._taylor
@@ -209,13 +213,35 @@ class FlowStepper(SurfaceSteps):
         X = self._taylor_set
         if X is None or P is not self._taylor_end:
             X = taylor.start(P)
+            self._taylor_origin = P
         try:
             X, P_next, H = taylor.step(X, r)
         except TaylorError as exc:
+            self._failed_bend = self._bend_of(X)
             self._taylor_set = self._taylor_end = None
             raise RemainderError(f"mode {self.mode.name!r}: Taylor model: {exc}") from exc
         self._taylor_set, self._taylor_end = X, P_next
         return P_next, H
+
+    def bent_direction(self, origin: Zonotope) -> np.ndarray | None:
+        """The generator of ``origin`` along which the current Taylor model (or the one
+        whose step just failed) bends most (:func:`~hybridlab.reachability.taylor.bend`),
+        if that model started from ``origin`` itself; else ``None``."""
+        found = (self._bend_of(self._taylor_set) if self._taylor_set is not None
+                 else self._failed_bend)
+        if found is None or found[0] is not origin:
+            return None
+        return found[1]
+
+    def _bend_of(self, X: TaylorSet) -> tuple[Zonotope, np.ndarray] | None:
+        origin, taylor = self._taylor_origin, self._taylor
+        if origin is None or taylor is None:
+            return None
+        score = bend(X)
+        if not (score.size and np.all(np.isfinite(score)) and np.max(score) > 0):
+            return None
+        kept, _ = taylor.axes(origin)
+        return origin, kept[:, int(np.argmax(score))]
 
     def _step_with(self, P: Zonotope, r: float, sig: np.ndarray, m: ModeSystem
                    ) -> tuple[Zonotope, Zonotope]:

@@ -8,6 +8,8 @@ from typing import Any
 __all__ = ["FalsifyOptions", "ReachOptions"]
 
 _CLUSTERING = ("auto", "box", "none", "sweep")
+MAX_TAYLOR_ORDER = 7
+"""The highest space order of a Taylor model (``ReachOptions.taylor_order``)."""
 
 
 @dataclass(frozen=True)
@@ -96,11 +98,25 @@ class ReachOptions:
         variable is reported over the hull of its initial value and every constant its
         transitions assign (:mod:`hybridlab.reachability.slicing`).
         :func:`hybridlab.verify.check_safety` adds the variables its specs read.
-    split : int
-        Split the initial set into this many pieces along each of its
+    split : int or "auto"
+        An integer ``k``: split the initial set into ``k`` pieces along each of its
         generators (each uncertain initial state or parameter) and analyse
-        the pieces separately: ``split ** m`` analyses, each with a smaller set,
-        so nonlinear remainders and clustering hulls shrink.
+        the pieces separately: ``k ** m`` analyses, each with a smaller set,
+        so nonlinear remainders and clustering hulls shrink. ``"auto"``: bisect
+        only where it is needed: a piece whose set outgrew its remainder (or, in
+        :func:`hybridlab.verify.check_safety`, did not prove a spec) is cut in two
+        along the initial-set direction its Taylor model bends most in (the
+        direction halved least so far where that is not known) and both halves are
+        analysed again, within ``max_pieces`` analyses
+        (:mod:`hybridlab.reachability.bisection`).
+    max_pieces : int
+        The most analyses ``split="auto"`` runs, the failed pieces included.
+    taylor_order : int or None
+        Degree of the Taylor models in the initial-set variables (the *space
+        order*, 1 to 7). ``None``: the highest whose number of monomials stays
+        within 120 (7 for up to 3 uncertain directions, 3 for 5 to 7;
+        :func:`hybridlab.reachability.taylor.orders`). A higher order keeps more of a
+        wide set's curvature, at about twice the time per degree.
 
     Examples
     --------
@@ -119,7 +135,9 @@ class ReachOptions:
     remainder_iterations: int = 8
     fixpoint: bool = True
     bloat: float = 0.0
-    split: int = 1
+    split: int | str = 1
+    max_pieces: int = 64
+    taylor_order: int | None = None
     flowpipe: str = "zonotope"
     time_budget: float | None = None
     progress: bool | None = None
@@ -147,8 +165,14 @@ class ReachOptions:
         if not (isinstance(self.remainder_iterations, int) and self.remainder_iterations >= 1):
             raise ValueError("remainder_iterations must be a positive integer "
                              f"(got {self.remainder_iterations!r})")
-        if not (isinstance(self.split, int) and self.split >= 1):
-            raise ValueError(f"split must be a positive integer (got {self.split!r})")
+        if self.split != "auto" and not (isinstance(self.split, int) and self.split >= 1):
+            raise ValueError(f"split must be a positive integer or 'auto' (got {self.split!r})")
+        if not (isinstance(self.max_pieces, int) and self.max_pieces >= 1):
+            raise ValueError(f"max_pieces must be a positive integer (got {self.max_pieces!r})")
+        if self.taylor_order is not None and not (
+                isinstance(self.taylor_order, int) and 1 <= self.taylor_order <= MAX_TAYLOR_ORDER):
+            raise ValueError(f"taylor_order must be an integer from 1 to {MAX_TAYLOR_ORDER} "
+                             f"(got {self.taylor_order!r})")
         if self.flowpipe not in ("zonotope", "taylor"):
             raise ValueError(f"flowpipe must be 'zonotope' or 'taylor' (got {self.flowpipe!r})")
         if not 0 <= self.bloat < 1e-3:

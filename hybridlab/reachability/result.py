@@ -240,6 +240,13 @@ class ReachResult:
         Incomplete only because nonlinear modes' sets outgrew their linearisation (a
         smaller step or a split initial set may get further); not when a budget
         (``max_sets``, ``max_jumps``, the time) also ended a branch.
+    split_direction : array or None
+        Where the analysis ended (a set outgrew its remainder, or did not prove a spec
+        it was asked to stop on) in a Taylor model started from the initial set itself
+        (no jump before): the generator of the initial set along which that model bent
+        most, where a split pays most (``split="auto"`` cuts there); else ``None``.
+    pieces : int
+        The analyses whose sets this result holds (1 unless the initial set was split).
 
     Examples
     --------
@@ -271,6 +278,8 @@ class ReachResult:
     stopped_unproved: bool = False
     unproved_between_steps: bool = False
     too_wide: bool = False
+    split_direction: np.ndarray | None = field(default=None, repr=False)
+    pieces: int = 1
 
     def __repr__(self) -> str:
         bounds = ", ".join(f"{k}: [{lo:.6g}, {hi:.6g}]" for k, (lo, hi) in self.bounds.items())
@@ -401,4 +410,5 @@ def merge_results(results: Sequence[ReachResult]) -> ReachResult:
         unproved_between_steps=any(r.stopped_unproved for r in results) and all(
             r.unproved_between_steps for r in results if r.stopped_unproved),
         too_wide=any(r.too_wide for r in results)
-        and all(r.too_wide or r.complete for r in results))
+        and all(r.too_wide or r.complete for r in results),
+        pieces=sum(r.pieces for r in results))
