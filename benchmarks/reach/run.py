@@ -28,15 +28,18 @@ automaton). hybridlab's bytecode is compiled before the runs, as pip compiles an
 package's (Hylaa's). With ``--flowstar PATH`` (a Flow* 2.1.0 binary, built outside this
 project: see README.md) the nonlinear instances also run through Flow* on the model files in
 ``flowstar/`` (one subprocess each, in a scratch directory, under the same time limit as
-Hylaa); its verdict, its whole-process time, its own "Total time cost" (the CPU time of its
-flowpipe computation and safety check, as "in-process") and the ratios hybridlab / Flow* (where
-both reach the same SAFE or UNSAFE verdict) are added to the table. Nothing here is a test.
+Hylaa; the coupled oscillators' initial box is cut into 16 pieces, one subprocess per piece,
+SAFE only if every piece is, times summed); its verdict, its whole-process time, its own
+"Total time cost" (the CPU time of its flowpipe computation and safety check, as
+"in-process") and the ratios hybridlab / Flow* (where both reach the same SAFE or UNSAFE
+verdict) are added to the table. Nothing here is a test.
 """
 
 from __future__ import annotations
 
 import argparse
 import compileall
+import itertools
 import json
 import math
 import os
@@ -48,6 +51,7 @@ import sys
 import tempfile
 import time
 from dataclasses import dataclass
+from decimal import Decimal
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -105,15 +109,82 @@ BENCHMARKS = (
 )
 BY_NAME = {b.name: b for b in BENCHMARKS}
 
+
+@dataclass(frozen=True)
+class FlowstarModel:
+    """A Flow* model file in ``flowstar/``, run on its initial box whole or cut into pieces.
+
+    Parameters
+    ----------
+    file : str
+        The model file; its ``init`` block gives the whole initial box.
+    split : tuple of (str, int)
+        Variables of the initial box and the number of equal intervals to cut each into.
+        Every piece of the product is a Flow* run of its own, on the file with that piece
+        as its ``init`` intervals. Empty: one run on the file as it is.
+    """
+
+    file: str
+    split: tuple[tuple[str, int], ...] = ()
+
+    def pieces(self) -> list[tuple[str, str]]:
+        """The models to run, as ``(label, model text)``; the label names the piece.
+
+        The cuts are computed in decimal arithmetic from the file's interval bounds, and
+        neighbouring pieces share the same bound, so the pieces cover the box exactly.
+
+        Returns
+        -------
+        list of (str, str)
+            One entry per piece (one, labelled ``""``, without a split); each text starts
+            with a comment line naming the piece.
+
+        Raises
+        ------
+        ValueError
+            If a split variable does not occur exactly once as ``VAR in [LO, HI]``.
+        """
+        text = (HERE / "flowstar" / self.file).read_text()
+        if not self.split:
+            return [("", text)]
+        cuts = []  # per split variable: (pattern of its init line, its intervals)
+        for var, n in self.split:
+            pattern = re.compile(rf"^(\s*{re.escape(var)}\s+in\s*)\[([^,\]]+),([^\]]+)\]",
+                                 re.MULTILINE)
+            found = pattern.findall(text)
+            if len(found) != 1:
+                raise ValueError(f"{self.file}: {var} in [lo, hi] occurs {len(found)} times")
+            lo, hi = Decimal(found[0][1].strip()), Decimal(found[0][2].strip())
+            edges = [_decimal(lo + (hi - lo) * i / n) for i in range(n + 1)]
+            cuts.append((pattern, [(var, edges[i], edges[i + 1]) for i in range(n)]))
+        count = math.prod(n for _, n in self.split)
+        pieces = []
+        for number, box in enumerate(itertools.product(*(c[1] for c in cuts)), 1):
+            label = ", ".join(f"{var} in [{lo}, {hi}]" for var, lo, hi in box)
+            piece = text
+            for (pattern, _), (_, lo, hi) in zip(cuts, box, strict=True):
+                piece = pattern.sub(rf"\g<1>[{lo}, {hi}]", piece)
+            pieces.append((label, f"# piece {number} of {count}, made by run.py from "
+                                  f"{self.file}: {label}\n{piece}"))
+        return pieces
+
+
+def _decimal(value: Decimal) -> str:
+    """``value`` in plain decimal notation, without trailing zeros."""
+    return format(value.normalize(), "f")
+
+
 # Flow* versions of the nonlinear instances (flowstar/*.model; settings and their sources in
 # each file's header and in README.md). Flow* 2.1.0 has one unsafe set per continuous model,
 # a conjunction: the coupled oscillators' model checks y1 >= 2.75, and y2 by their symmetry.
+# CVDP23 is proved piece by piece: b cut into 4, x1 and x2 into 2 each, 16 Flow* runs.
 FLOWSTAR_MODELS = {
-    "vanderpol": "vanderpol.model",
-    "coupled_vanderpol": "coupled_vanderpol.model",
-    "laub_loomis_w001": "laub_loomis_w001.model",
-    "laub_loomis_w005": "laub_loomis_w005.model",
-    "laub_loomis_w01": "laub_loomis_w01.model",
+    "vanderpol": FlowstarModel("vanderpol.model"),
+    "coupled_vanderpol": FlowstarModel("coupled_vanderpol.model",
+                                       split=(("b", 4), ("x1", 2), ("x2", 2))),
+    "laub_loomis_w001": FlowstarModel("laub_loomis_w001.model"),
+    "laub_loomis_w005": FlowstarModel("laub_loomis_w005.model"),
+    "laub_loomis_w01": FlowstarModel("laub_loomis_w01.model"),
 }
 
 
@@ -236,18 +307,65 @@ def parse_flowstar(out: str) -> tuple[str, float | None, str]:
 
 
 def run_flowstar(b: Benchmark, binary: str | None, timeout: float | None) -> Outcome:
-    """Run Flow* on the benchmark's model file, in a scratch directory (it writes its
-    ``outputs/`` and ``images/`` directories into the working directory)."""
+    """Run Flow* on the benchmark's model, piece by piece when its initial box is cut.
+
+    Parameters
+    ----------
+    b : Benchmark
+        The instance; only those in ``FLOWSTAR_MODELS`` have a Flow* model.
+    binary : str or None
+        The Flow* 2.1.0 binary (``n/a`` without one).
+    timeout : float or None
+        Seconds for the whole instance, all its pieces together (1800 if ``None``).
+
+    Returns
+    -------
+    Outcome
+        SAFE only if every piece is SAFE, with the times summed over the pieces: "whole"
+        the wall time around each subprocess, "in-process" Flow*'s own "Total time cost".
+        Otherwise the verdict of the first piece that is not SAFE (UNKNOWN, UNSAFE,
+        TIMEOUT or ERROR), with that piece named in the reason and the times summed up to
+        it; the remaining pieces are not run (the instance can no longer be SAFE).
+    """
     model = FLOWSTAR_MODELS.get(b.name)
     if model is None:
         return Outcome("n/a", None, "no Flow* model (only the nonlinear instances have one)")
     if binary is None:
         return Outcome("n/a", None, "no --flowstar given")
-    with tempfile.TemporaryDirectory(prefix="flowstar-") as scratch, \
-            open(HERE / "flowstar" / model) as stdin:
+    pieces = model.pieces()
+    deadline = time.perf_counter() + (1800 if timeout is None else timeout)
+    whole: float | None = 0.0
+    seconds: float | None = 0.0
+    costs = []
+    # a scratch directory: Flow* writes its outputs/ and images/ into its working directory
+    with tempfile.TemporaryDirectory(prefix="flowstar-") as scratch:
+        for number, (label, text) in enumerate(pieces, 1):
+            o = _run_flowstar_model(binary, text, scratch, deadline - time.perf_counter())
+            whole, seconds = _sum(whole, o.whole), _sum(seconds, o.seconds)
+            if o.verdict != "SAFE":
+                where = "" if len(pieces) == 1 else f"piece {number} of {len(pieces)} ({label}): "
+                return Outcome(o.verdict, seconds, where + o.reason, whole=whole)
+            costs.append(_seconds(o.seconds))
+    if len(pieces) == 1:
+        return Outcome("SAFE", seconds, o.reason, whole=whole)
+    split = ", ".join(f"{var} into {n}" for var, n in model.split)
+    return Outcome("SAFE", seconds, f"all {len(pieces)} pieces SAFE ({split}); Flow*'s time "
+                                    f"cost per piece [s]: {' '.join(costs)}", whole=whole)
+
+
+def _run_flowstar_model(binary: str, text: str, scratch: str, timeout: float) -> Outcome:
+    """Run Flow* once on the model ``text`` in the directory ``scratch``.
+
+    The model is written to ``scratch`` and given to Flow* on its standard input. With
+    ``timeout`` (seconds) not positive, Flow* is not started and the outcome is TIMEOUT.
+    """
+    if timeout <= 0:
+        return Outcome("TIMEOUT", None, "Flow* gave no verdict in time (no time left)")
+    path = Path(scratch) / "model"
+    path.write_text(text)
+    with open(path) as stdin:
         start = time.perf_counter()
-        proc, out, err = _run_group([binary], 1800 if timeout is None else timeout,
-                                    stdin=stdin, cwd=scratch)
+        proc, out, err = _run_group([binary], timeout, stdin=stdin, cwd=scratch)
         if out is None:
             return Outcome("TIMEOUT", None, "Flow* gave no verdict in time (process killed)")
         whole = time.perf_counter() - start
@@ -255,6 +373,11 @@ def run_flowstar(b: Benchmark, binary: str | None, timeout: float | None) -> Out
     if proc.returncode != 0 and verdict == "ERROR":
         reason = (err.strip().splitlines() or [f"exit status {proc.returncode}"])[-1]
     return Outcome(verdict, seconds, reason, whole=whole)
+
+
+def _sum(total: float | None, value: float | None) -> float | None:
+    """``total + value``, or ``None`` when either is unknown."""
+    return None if total is None or value is None else total + value
 
 
 def _ratio(ours: float | None, theirs: float | None) -> str:
