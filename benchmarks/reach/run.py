@@ -162,8 +162,8 @@ class FlowstarModel:
         for number, box in enumerate(itertools.product(*(c[1] for c in cuts)), 1):
             label = ", ".join(f"{var} in [{lo}, {hi}]" for var, lo, hi in box)
             piece = text
-            for (pattern, _), (_, lo, hi) in zip(cuts, box, strict=True):
-                piece = pattern.sub(rf"\g<1>[{lo}, {hi}]", piece)
+            for (pattern, _), (_, left, right) in zip(cuts, box, strict=True):
+                piece = pattern.sub(rf"\g<1>[{left}, {right}]", piece)
             pieces.append((label, f"# piece {number} of {count}, made by run.py from "
                                   f"{self.file}: {label}\n{piece}"))
         return pieces
@@ -423,7 +423,7 @@ def main(argv: list[str] | None = None) -> int:
           + ("" if args.timeout is None else f", timeout {args.timeout:g} s per instance")
           + (", hybridlab with the .cfg's step" if args.cfg_step else
              ", hybridlab with default options"))
-    header = ("benchmark", "published", "hybridlab", "whole [s]", "in-process [s]",
+    header: tuple[str, ...] = ("benchmark", "published", "hybridlab", "whole [s]", "in-process [s]",
               "tightest bound", "Hylaa", "whole [s]", "in-process [s]")
     if args.flowstar:
         header += ("Flow*", "whole [s]", "in-process [s]", "hybridlab/Flow* whole",
@@ -435,8 +435,9 @@ def main(argv: list[str] | None = None) -> int:
         o = (run_hybridlab(b, args.cfg_step) if args.timeout is None
              else run_hybridlab_isolated(b, args.timeout, args.cfg_step))
         h = run_hylaa(b, args.hylaa_python, args.timeout)
-        row = (b.name, b.published, o.verdict, _seconds(o.whole), _seconds(o.seconds),
-               _bound(o.margin), h.verdict, _seconds(h.whole), _seconds(h.seconds))
+        row: tuple[str, ...] = (b.name, b.published, o.verdict, _seconds(o.whole),
+                                _seconds(o.seconds), _bound(o.margin), h.verdict,
+                                _seconds(h.whole), _seconds(h.seconds))
         f = None
         if args.flowstar:
             f = run_flowstar(b, args.flowstar, args.timeout)
