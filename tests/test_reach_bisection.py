@@ -81,6 +81,23 @@ def test_coupled_oscillators_are_cut_along_the_coupling_first(models_dir):
         assert halves.covers(t, sol.y.T, "osc").all(), z0
 
 
+def test_a_complete_flowpipe_too_wide_for_its_spec_is_bisected_before_the_step_is_halved(
+        models_dir):
+    # Van der Pol from the ARCH box over 3 s, linearised: the whole set completes with
+    # y >= -2.721, its first unproved set fails at its step instants too (not only between
+    # them), so the verdict bisects the set before halving the step; two halves prove it
+    from hybridlab.verify import VerdictStatus, check_safety
+
+    vdp = load_spaceex(models_dir / "spaceex" / "vanderpol.xml",
+                       models_dir / "spaceex" / "vanderpol.cfg")
+    kw = {**{k: v for k, v in vdp.reach_kwargs().items() if k != "step"}, "t_end": 3.0}
+    assert reach(vdp.model, **kw).bounds["y"][0] < -2.7
+    verdict = check_safety(vdp.model, safe="y >= -2.7", flowpipe="zonotope", **kw)
+    assert verdict.status is VerdictStatus.SAFE, verdict.reason
+    assert verdict.reason.endswith("(refined: the initial set bisected where its pieces "
+                                   "failed, split='auto'; 2 pieces)")
+
+
 @pytest.mark.parametrize(("changes", "message"), [
     ({"split": "half"}, "split must be a positive integer or 'auto'"),
     ({"max_pieces": 0}, "max_pieces must be a positive integer"),
