@@ -757,6 +757,7 @@ class _Analysis:
             complete=complete, incomplete_reasons=tuple(self.reasons),
             too_wide=bool(self.too_wide) and self.too_wide == set(self.reasons),
             fixpoint=complete and bool(self.fixpoints) and self.open_branches == 0,
+            nonlinear=any(not self.system.modes[m].affine for m in self.steppers),
             time_s=_time.perf_counter() - started, state_names=names,
             t_span=(self.t_start, self.t_end), options=self.options)
 

@@ -247,6 +247,10 @@ class ReachResult:
         most, where a split pays most (``split="auto"`` cuts there); else ``None``.
     pieces : int
         The analyses whose sets this result holds (1 unless the initial set was split).
+    nonlinear : bool
+        Some set was computed in a mode whose flow is not affine in the extended state
+        (an uncertain parameter times a state counts): there the sets' looseness grows
+        with their width, so pieces of the initial set are tighter.
 
     Examples
     --------
@@ -280,6 +284,7 @@ class ReachResult:
     too_wide: bool = False
     split_direction: np.ndarray | None = field(default=None, repr=False)
     pieces: int = 1
+    nonlinear: bool = False
 
     def __repr__(self) -> str:
         bounds = ", ".join(f"{k}: [{lo:.6g}, {hi:.6g}]" for k, (lo, hi) in self.bounds.items())
@@ -411,4 +416,5 @@ def merge_results(results: Sequence[ReachResult]) -> ReachResult:
             r.unproved_between_steps for r in results if r.stopped_unproved),
         too_wide=any(r.too_wide for r in results)
         and all(r.too_wide or r.complete for r in results),
-        pieces=sum(r.pieces for r in results))
+        pieces=sum(r.pieces for r in results),
+        nonlinear=any(r.nonlinear for r in results))

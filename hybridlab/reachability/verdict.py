@@ -441,10 +441,11 @@ def check(
         bisections.append(pieces)
         return pieces if pieces.proved and pieces.result.complete else best
 
-    # a flowpipe of one mode whose first unproved set fails at its step instants too, not
-    # only between them, is too wide rather than too coarse in time: bisected first
+    # a nonlinear flowpipe of one mode whose first unproved set fails at its step instants
+    # too, not only between them, is too wide rather than too coarse in time: bisected first
     wide_first = (not split_chosen and quick is not None and quick.result.stopped_unproved
-                  and not quick.result.unproved_between_steps and not best.jumped)
+                  and not quick.result.unproved_between_steps and not best.jumped
+                  and best.result.nonlinear)
     try:  # a refinement that fails leaves the result before it standing
         if best.open and wide_first:
             best = bisected(best, capped=True)
