@@ -26,7 +26,7 @@ Examples
 --------
 The cubic decay ``x' = -x^3`` from a wide interval with a long step: the whole set's
 linearisation does not settle; the upper half, where the flow is more curved, is cut
-again, twice, so five pieces get through (equal pieces need six).
+further, so five pieces get through (equal pieces need six).
 
 >>> import hybridlab
 >>> cubic = hybridlab.model_from_dict({
