@@ -431,13 +431,12 @@ def check(
     def bisected(best: _Attempt, capped: bool) -> _Attempt:
         """``best``, or its initial set bisected where the pieces fail (each piece ends at
         its first set that does not prove every spec), along the direction its set bends
-        most, if that proves the specs; ``capped``: within _OPEN_SPLIT_FACTOR times the
-        analysis's own time."""
-        until = None
+        most, if that proves the specs; ``capped``: in at most _OPEN_SPLIT_PIECES
+        analyses."""
+        stage = {**best.stage, "split": "auto"}
         if capped:
-            until = time.time() + _OPEN_SPLIT_FACTOR * best.result.time_s
-            until = until if deadline is None else min(until, deadline)
-        pieces = attempt({**best.stage, "split": "auto"}, until, stop=True)
+            stage["max_pieces"] = min(_OPEN_SPLIT_PIECES, resolved.max_pieces)
+        pieces = attempt(stage, stop=True)
         bisections.append(pieces)
         return pieces if pieces.proved and pieces.result.complete else best
 
@@ -548,13 +547,13 @@ _ORDER_RAISE = 1
 """Degrees added to the Taylor models' default space order when they outgrow their set
 (the coupled Van der Pol oscillators: order 3 fails at t = 3.66, order 4 at t = 4.2; their
 box bisected at order 4 is proved in 203 s and 18 pieces, at order 5 in 281 s and 13)."""
-_OPEN_SPLIT_FACTOR = 16.0
-"""A complete flowpipe that proves too little is bisected (``split="auto"``) for at most this
-many times its own analysis's time (Van der Pol from the ARCH box over 3 s, linearised,
-bounds ``y >= -2.721`` whole and ``-2.616`` in two halves: ``y >= -2.7`` is proved in 3.2 s,
-the halves taking 1.3 s; the sensor follower with its guard hits joined in a box takes 10
-pieces, 0.84 s in all). Where the looseness is not the set's width, pieces do not help, and
-the cap bounds what finding that out costs."""
+_OPEN_SPLIT_PIECES = 32
+"""A complete flowpipe that proves too little is bisected (``split="auto"``) in at most this
+many analyses (Van der Pol from the ARCH box over 3 s, linearised, bounds ``y >= -2.721``
+whole and ``-2.616`` in two halves: ``y >= -2.7`` is proved in 3 analyses; the sensor
+follower with its guard hits joined in a box in 10 pieces). Where the looseness is not the
+set's width, pieces do not help, and the cap bounds what finding that out costs: a number of
+analyses, so the verdict does not depend on the machine's speed."""
 _SPLIT_PROGRESS = 0.25
 """A split is tried only when the whole set got through this fraction of the horizon before
 it outgrew its linearisation (Van der Pol: half; a cart's pendulum swinging from a wide set:
