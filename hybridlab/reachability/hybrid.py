@@ -55,6 +55,15 @@ from hybridlab.reachability.clusters import GROUP_GROWTH, groups, hull, oriented
 from hybridlab.reachability.linear import StepError
 from hybridlab.reachability.nonlinear import FlowStepper, RemainderError
 from hybridlab.reachability.options import ReachOptions
+from hybridlab.reachability.phases import (
+    MAX_PHASE_ITEMS,
+    Phase,
+    Phases,
+    PhaseWatch,
+    Step,
+    with_phase,
+    without_phase,
+)
 from hybridlab.reachability.result import ReachResult, ReachSet, _Context
 from hybridlab.reachability.sets import Box, SetError, Zonotope
 from hybridlab.reachability.slicing import Slice, unread_outputs
@@ -100,6 +109,8 @@ class Item:
     jumps: int
     #: scheduled instant this item starts at and the transitions already fired there
     sched_done: tuple[float, frozenset[int]] | None = None
+    #: the sides of the switching surfaces it is analysed on (:mod:`.phases`)
+    phase: Phase = ()
 
 
 def _is_box(Z: Zonotope) -> bool:
@@ -214,12 +225,14 @@ class _Analysis:
         self.started = _time.time()
         self.shown = 0.0  # when progress was last shown (0: never)
         self.progress_tty = sys.stderr.isatty()
-        self.steppers: dict[str, FlowStepper] = {}
+        self.steppers: dict[tuple[str, Phase], FlowStepper] = {}
+        self.phases = Phases(system)
+        self.phase_items = 0  # items entered in a phase by a split or a phase change
         self.records: list[tuple[int, ReachSet]] = []
         self.reasons: list[str] = []
         self.too_wide: set[str] = set()  # the reasons that are a set outgrowing a linearisation
         self.items: dict[int, Item] = {}
-        self.seen: dict[str, _EntrySets] = {}
+        self.seen: dict[tuple[str, Phase], _EntrySets] = {}
         self.fixpoints: list[tuple[int, float]] = []
         self.open_branches = 0  # branches ended by t_end (not by a fixpoint or dying)
         self.next_id = 0
@@ -243,7 +256,8 @@ class _Analysis:
 
     # ----- waiting list -------------------------------------------------------------------
     def push(self, parent: int | None, mode: str, P: Zonotope, t_lo: float, t_hi: float,
-             jumps: int, sched_done: tuple[float, frozenset[int]] | None = None) -> None:
+             jumps: int, sched_done: tuple[float, frozenset[int]] | None = None,
+             phase: Phase = ()) -> None:
         if t_lo > self.t_end:
             return
         if jumps > self.options.max_jumps:
@@ -252,11 +266,11 @@ class _Analysis:
             return
         # a set entered outside the target's invariant is kept: a guard may still fire at the
         # entry instant (the simulator fires guards before it checks the invariant)
-        item = Item(self.next_id, parent, mode, P, t_lo, t_hi, jumps, sched_done)
+        item = Item(self.next_id, parent, mode, P, t_lo, t_hi, jumps, sched_done, phase)
         self.next_id += 1
         self.items[item.id] = item
         if self.use_fixpoint:
-            seen = self.seen.setdefault(mode, _EntrySets(P.dim))
+            seen = self.seen.setdefault((mode, phase), _EntrySets(P.dim))
             old = seen.covering(P)
             if old is not None:
                 self.fixpoints.append((old.id, min(0.0, t_lo - old.t_lo)))
@@ -268,10 +282,12 @@ class _Analysis:
         if text not in self.reasons:
             self.reasons.append(text)
 
-    def stepper(self, mode: str) -> FlowStepper:
-        if mode not in self.steppers:
-            self.steppers[mode] = FlowStepper(self.system, mode, self.options)
-        return self.steppers[mode]
+    def stepper(self, mode: str, phase: Phase = ()) -> FlowStepper:
+        key = (mode, phase)
+        if key not in self.steppers:
+            flow = self.phases.flow(mode, phase) if phase else None
+            self.steppers[key] = FlowStepper(self.system, mode, self.options, flow)
+        return self.steppers[key]
 
     def record(self, item: Item, H: Zonotope, t0: float, t1: float,
                inside: bool = False, ends: tuple[Zonotope, Zonotope | None] | None = None
@@ -281,7 +297,7 @@ class _Analysis:
         tell a spec that fails only between the two instants)."""
         full = H
         box = H.bounds()
-        rows = self.system.modes[item.mode].invariants
+        rows = self.stepper(item.mode, item.phase).mode.invariants
         within = (rows.range(H)[:, 0] >= 0 if rows.size and not inside
                   else np.ones(rows.size, dtype=bool))
         for i in np.flatnonzero(rows.linear & ~within):  # exact hull of H within the invariant
@@ -330,9 +346,9 @@ class _Analysis:
     # ----- one item -----------------------------------------------------------------------
     def flow(self, item: Item) -> None:
         system = self.system
-        mode = system.modes[item.mode]
         cmode = self.compiled.modes[item.mode]
-        stepper = self.stepper(item.mode)
+        stepper = self.stepper(item.mode, item.phase)
+        mode = stepper.mode  # with the phase's flow and sides (reachability.phases)
         stepper.reset()
         guarded = [tr for tr in cmode.outgoing
                    if not tr.scheduled and tr.index not in self.sliced.transitions]
@@ -365,6 +381,9 @@ class _Analysis:
         landings = 0  # steps shortened in a row to land on a guard's crossing instant
         quiet = _QuietRun(not scheduled and bool(np.all(mode.invariants.linear)) and all(
             bool(np.all(system.guards[tr.index].linear)) for tr in guarded))
+        sides = PhaseWatch(self.phases, item.mode, item.phase, item.P, stepper.sign_ranges,
+                           lambda text, side, to, run: self._phase_jump(item, text, side, to,
+                                                                        run))
         while True:
             start_lo = item.t_lo + rel if not exact_time else now
             if quiet.due() and not any(clusters.values()):
@@ -388,6 +407,14 @@ class _Analysis:
                 if rel == 0.0:  # entered at t_end: the set itself is all there is
                     self.record(item, P, item.t_lo, item.t_hi)
                 break
+            straddled = (self.phases.straddled(item.mode, item.phase, P, self.step)
+                         if self.options.sign_phases and self.phase_items < MAX_PHASE_ITEMS
+                         else None)
+            if straddled is not None:
+                self._split(item, straddled, P, start_lo,
+                            now if exact_time else item.t_hi + rel,
+                            done_at if exact_time else None)
+                break
             r = min(self.step, self.t_end - start_lo)
             if scheduled and instant < now + r:
                 r = instant - now
@@ -408,8 +435,12 @@ class _Analysis:
                 break
             t0 = start_lo
             t1 = (now + r) if exact_time else item.t_hi + rel + r
+            reaching = H  # before the cuts: does the flow reach a surface?
             H = _within(stepper.reduce(H, self.options.order), mode.invariants)
             P_next = _within(stepper.reduce(P_next, self.options.order), mode.invariants)
+            if item.phase:
+                H = self._in_phase(item, stepper, H)
+                P_next = self._in_phase(item, stepper, P_next)
             if H is None:
                 break  # every trajectory has left the mode
             inv = mode.invariants.range(H)
@@ -441,6 +472,8 @@ class _Analysis:
                 elif clusters[tr.index]:
                     self._jump(item, tr, clusters[tr.index])
                     clusters[tr.index] = []
+            if sides.step(P, H, reaching, P_next, t0, t1):
+                stop = True
             if stop or P_next is None:
                 break
             P = P_next
@@ -451,10 +484,80 @@ class _Analysis:
         for tr in guarded:
             if clusters[tr.index]:
                 self._jump(item, tr, clusters[tr.index])
+        sides.flush()
+
+    def _in_phase(self, item: Item, stepper: FlowStepper, Z: Zonotope | None
+                  ) -> Zonotope | None:
+        """``Z`` cut to where solutions may still be in the item's phase: on the side of
+        each surface it is above or below, and where it slides, where the surface still
+        attracts (``up <= 0 <= down``)."""
+        Z = self.phases.to_sides(item.mode, item.phase, Z)
+        for text, side in item.phase:
+            if side == 0 and Z is not None:
+                signs = stepper.sign_ranges(Z)
+                Z = self.phases.where_rate(item.mode, text, Z, signs, 1.0, -np.inf, 0.0)
+                Z = self.phases.where_rate(item.mode, text, Z, signs, -1.0, 0.0, np.inf)
+        return Z
+
+    def _split(self, item: Item, text: str, P: Zonotope, t_lo: float, t_hi: float,
+               sched_done: tuple[float, frozenset[int]] | None) -> None:
+        """Continue ``P`` (at times ``[t_lo, t_hi]``) as two items, one on each side of
+        the surface of switch ``text`` (:mod:`.phases`)."""
+        for side, part in zip((1.0, -1.0), self.phases.split(item.mode, text, P), strict=True):
+            if part is not None:
+                self.phase_items += 1
+                self.push(item.id, item.mode, part, t_lo, t_hi, item.jumps + 1, sched_done,
+                          with_phase(item.phase, text, side))
+
+    def _phase_jump(self, item: Item, text: str, side: float, to: float | None,
+                    run: list[Step]) -> None:
+        """Continue a run of steps ``(start set, step set, t0, t1)`` that may leave
+        ``side`` of switch ``text``: their sets, joined and cut to its surface, enter side
+        ``to``, or (``None``) each phase that may follow a solution reaching the surface
+        from ``side`` (:mod:`.phases`).
+
+        The join is one step of the run's whole length from its first start set: it holds
+        every state of the run's steps, with the flow's correlations (a box or a sweep of
+        the step sets would lose those between the states a stiff feedback ties together).
+        """
+        stepper = self.stepper(item.mode, item.phase)
+        t_lo = run[0][2]
+        t_hi = min(run[-1][3], self.t_end)
+        joined = run[0][1]
+        if len(run) > 1:
+            # the run's length: from its first step's start to its last step's end
+            length = run[-1][3] - run[0][2] - (item.t_hi - item.t_lo)
+            try:
+                joined = stepper.step(run[0][0], length)[1]
+            except (StepError, SetError):
+                box = hull([H.bounds() for _, H, _, _ in run])
+                joined = Box(box[:, 0], box[:, 1]).to_zonotope()
+        on = self.phases.on_surface(item.mode, text, joined)
+        if on is None:
+            return
+        on = on.reduce(self.options.order)
+        signs = stepper.sign_ranges(on)
+        where = self.phases.where_rate
+        if to is not None:  # a slide ends where the rate on side ``to`` comes to 0
+            entries = [(to, where(item.mode, text, on, signs, to, 0.0, 0.0))]
+        else:  # from above it slides where down >= 0, and crosses where down <= 0
+            entries = [(0.0, where(item.mode, text, on, signs, -side, 0.0, np.inf) if side > 0
+                        else where(item.mode, text, on, signs, -side, -np.inf, 0.0)),
+                       (-side, where(item.mode, text, on, signs, -side, -np.inf, 0.0)
+                        if side > 0 else where(item.mode, text, on, signs, -side, 0.0, np.inf))]
+        if self.phase_items >= MAX_PHASE_ITEMS:  # no more phases: the sign in [-1, 1] again
+            self.push(item.id, item.mode, on, t_lo, t_hi, item.jumps + 1,
+                      phase=without_phase(item.phase, text))
+            return
+        for target, entry in entries:
+            if entry is not None:
+                self.phase_items += 1
+                self.push(item.id, item.mode, entry, t_lo, t_hi, item.jumps + 1,
+                          phase=with_phase(item.phase, text, target))
 
     def _note_bend(self, item: Item) -> None:
         """Keep where the root item's Taylor model bends most, as the analysis ends there."""
-        stepper = self.steppers.get(item.mode)
+        stepper = self.steppers.get((item.mode, item.phase))
         if item.parent is None and stepper is not None:
             self.split_direction = stepper.bent_direction(item.P)
 
@@ -497,7 +600,7 @@ class _Analysis:
             return 0, P, rel, now
         system = self.system
         quiet = np.ones(len(ahead), dtype=bool)
-        inv = system.modes[item.mode].invariants
+        inv = stepper.mode.invariants
         if inv.size:  # min over the set of a z + b must stay >= 0
             support = ahead.supports(-inv.a)
             quiet &= np.all(inv.b - support >= _QUIET_SLACK * (np.abs(support)
@@ -559,7 +662,8 @@ class _Analysis:
                 except StepError as exc:
                     self._reason(str(exc))
                     continue
-                self.push(item.id, tr.target, post, item.t_lo, item.t_hi, item.jumps + 1)
+                self.push(item.id, tr.target, post, item.t_lo, item.t_hi, item.jumps + 1,
+                          phase=self._carried(item, tr))
 
     def _landing(self, mode: str, guarded, P: Zonotope, r: float, t: float) -> float:
         """The step length ``r``, shortened to land on the instant a guard is crossed
@@ -644,7 +748,7 @@ class _Analysis:
                 continue
             post = self._reset(tr.index, piece)
             self.push(item.id, tr.target, post, now, now, item.jumps + 1,
-                      (now, previous | fired))
+                      (now, previous | fired), self._carried(item, tr))
             if rows.size == 0 or np.all(rng[:, 0] > 0):
                 return True
         return False
@@ -719,7 +823,11 @@ class _Analysis:
             except StepError as exc:
                 self._reason(str(exc))
                 continue
-            self.push(item.id, tr.target, post, t_lo, min(t_hi, self.t_end), item.jumps + 1)
+            self.push(item.id, tr.target, post, t_lo, min(t_hi, self.t_end), item.jumps + 1,
+                      phase=self._carried(item, tr))
+
+    def _carried(self, item: Item, tr) -> Phase:
+        return self.phases.carried(item.phase, tr.target, self.system.resets[tr.index])
 
     # ----- driver ---------------------------------------------------------------------------
     def run(self) -> None:
@@ -757,7 +865,7 @@ class _Analysis:
             complete=complete, incomplete_reasons=tuple(self.reasons),
             too_wide=bool(self.too_wide) and self.too_wide == set(self.reasons),
             fixpoint=complete and bool(self.fixpoints) and self.open_branches == 0,
-            nonlinear=any(not self.system.modes[m].affine for m in self.steppers),
+            nonlinear=any(not self.system.modes[m].affine for m, _ in self.steppers),
             time_s=_time.perf_counter() - started, state_names=names,
             t_span=(self.t_start, self.t_end), options=self.options)
 

@@ -58,7 +58,7 @@ class MeanValue:
     """
 
     def __init__(self, exprs: Sequence[sp.Expr], zsyms: Sequence[sp.Symbol],
-                 usyms: Sequence[sp.Symbol]) -> None:
+                 usyms: Sequence[sp.Symbol], second_order: bool = False) -> None:
         from hybridlab.reachability.system import jacobian
         wsyms = tuple(zsyms) + tuple(usyms)
         self.size = len(exprs)
@@ -67,6 +67,11 @@ class MeanValue:
         jac = jacobian(list(exprs), wsyms)
         self.gradient = IntervalFunction([_no_impulses(e) for e in jac], wsyms)
         self.shape = (self.size, len(wsyms))
+        self.hessian: IntervalFunction | None = None
+        if second_order:
+            entries = [_no_impulses(d) for row in jacobian(list(jac), wsyms).tolist()
+                       for d in row]
+            self.hessian = IntervalFunction(entries, wsyms)
 
     def __call__(self, Z: Zonotope, u_lo: np.ndarray, u_hi: np.ndarray
                  ) -> tuple[np.ndarray, np.ndarray]:
@@ -95,5 +100,63 @@ class MeanValue:
             mv_lo = np.nextafter(v_lo - spread, -np.inf)
             mv_hi = np.nextafter(v_hi + spread, np.inf)
         ok = np.isfinite(mv_lo) & np.isfinite(mv_hi)
-        return (np.where(ok, np.maximum(lo, mv_lo), lo),
-                np.where(ok, np.minimum(hi, mv_hi), hi))
+        lo, hi = np.where(ok, np.maximum(lo, mv_lo), lo), np.where(ok, np.minimum(hi, mv_hi), hi)
+        if self.hessian is not None:
+            lo, hi = self._second_order(Z, u_lo, u_hi, lo, hi)
+        return lo, hi
+
+    def _second_order(self, Z: Zonotope, u_lo: np.ndarray, u_hi: np.ndarray,
+                      lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``f(w_c) + J(w_c) d + d' Hess d / 2`` over ``d = w - w_c``: the Jacobian at
+        the centre keeps the zonotope's correlations where the Jacobian over its hull
+        varies (a gain that depends on an angle, times deviations that cancel)."""
+        form = self.linear_form(Z, u_lo, u_hi)
+        if form is None:
+            return lo, hi
+        v_lo, v_hi, grad, slack = form
+        with np.errstate(over="ignore", invalid="ignore"):
+            spread = np.abs(grad @ Z.generators).sum(axis=1) * (1 + _PRODUCT_SLACK) + slack
+            so_lo = np.nextafter(v_lo - spread, -np.inf)
+            so_hi = np.nextafter(v_hi + spread, np.inf)
+        ok = np.isfinite(so_lo) & np.isfinite(so_hi)
+        return np.where(ok, np.maximum(lo, so_lo), lo), np.where(ok, np.minimum(hi, so_hi), hi)
+
+    def linear_form(self, Z: Zonotope, u_lo: np.ndarray, u_hi: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+        """``(v_lo, v_hi, grad, slack)`` with ``f_i(z, u)`` in
+        ``[v_lo_i - slack_i, v_hi_i + slack_i] + grad_i . (z - c)`` for every ``z`` in
+        ``Z`` (centre ``c``) and ``u`` in its box: the value and the state gradient at the
+        centre, and a bound of the rest (the inputs' and the gradient's spread, the
+        second-order term over the zonotope). ``None`` without a Hessian, or where the
+        enclosures are not finite."""
+        from hybridlab.reachability.nonlinear import _deviations, _quadratic_bound
+        if self.hessian is None:
+            return None
+        box = Z.bounds()
+        lo_w, hi_w = np.r_[box[:, 0], u_lo], np.r_[box[:, 1], u_hi]
+        w_c = np.r_[Z.center, 0.5 * (u_lo + u_hi)]
+        nw = lo_w.size
+        h_lo, h_hi = self.hessian(lo_w, hi_w)
+        v_lo, v_hi = self.value(w_c, w_c)
+        g_lo, g_hi = self.gradient(w_c, w_c)
+        if not all(np.all(np.isfinite(a)) for a in (h_lo, h_hi, v_lo, v_hi, g_lo, g_hi)):
+            return None
+        g_lo, g_hi = g_lo.reshape(self.shape), g_hi.reshape(self.shape)
+        mid = 0.5 * (g_lo + g_hi)
+        rad = np.nextafter(np.maximum(g_hi - mid, mid - g_lo), np.inf)
+        u_rad = np.nextafter(0.5 * (u_hi - u_lo), np.inf)
+        nz = self.nz
+        absG = np.abs(Z.generators)
+        D = _deviations(Z, Z.center, u_rad)
+        D_full = np.zeros((nw, D.shape[1]))
+        D_full[:D.shape[0]] = D
+        delta = np.maximum(np.abs(lo_w - w_c), np.abs(hi_w - w_c))
+        quad = _quadratic_bound(h_lo.reshape(self.size, nw, nw),
+                                h_hi.reshape(self.size, nw, nw), D_full, delta)
+        with np.errstate(over="ignore", invalid="ignore"):
+            slack = ((rad[:, :nz] @ absG).sum(axis=1)
+                     + (np.abs(mid[:, nz:]) + rad[:, nz:]) @ u_rad
+                     + _PRODUCT_SLACK * ((np.abs(mid[:, :nz]) @ absG).sum(axis=1)) + quad)
+        if not np.all(np.isfinite(slack)):
+            return None
+        return v_lo, v_hi, mid[:, :nz], np.nextafter(slack, np.inf)

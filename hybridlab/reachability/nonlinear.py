@@ -79,9 +79,11 @@ class FlowStepper(SurfaceSteps):
     True
     """
 
-    def __init__(self, system: System, mode: str, options: ReachOptions) -> None:
+    def __init__(self, system: System, mode: str, options: ReachOptions,
+                 flow: ModeSystem | None = None) -> None:
         self.system = system
-        self.mode: ModeSystem = system.modes[mode]
+        # the mode's flow, or the one of a phase of it (reachability.phases)
+        self.mode: ModeSystem = system.modes[mode] if flow is None else flow
         self.options = options
         n_in = len(system.inputs)
         lo, hi = system.input_box(mode)
@@ -137,6 +139,11 @@ class FlowStepper(SurfaceSteps):
             return np.zeros(0)
         rng = self.mode.switches.range(Z)
         return np.where(rng[:, 0] > 0, 1.0, np.where(rng[:, 1] < 0, -1.0, 0.0))
+
+    def sign_ranges(self, Z: Zonotope) -> np.ndarray:
+        """Ranges ``(n_sigma, 2)`` of the signs over ``Z``: ``+-1`` where the switching
+        function has that sign, ``[-1, 1]`` where it may be 0."""
+        return signs_box(self._sigma_signs(Z))
 
     def _propagator(self, A: np.ndarray, c: np.ndarray, r: float) -> Propagator:
         key = (A.tobytes(), c.tobytes(), r)

@@ -117,6 +117,13 @@ class ReachOptions:
         within 120 (7 for up to 3 uncertain directions, 3 for 5 to 7;
         :func:`hybridlab.reachability.taylor.orders`). A higher order keeps more of a
         wide set's curvature, at about twice the time per degree.
+    sign_phases : bool
+        Split a set that lies across the surface of a switching function
+        (Coulomb friction's ``sign(v)``) whose sign moves it noticeably within a
+        step, and follow each side's flow, and the sliding flow on the surface, as
+        phases of the analysis (:mod:`hybridlab.reachability.phases`); each split
+        and each change of phase counts as a jump. ``False``: the sign stays an
+        input, free in ``[-1, 1]`` where the set meets the surface.
 
     Examples
     --------
@@ -143,6 +150,7 @@ class ReachOptions:
     progress: bool | None = None
     deadline: float | None = None
     observed: tuple[str, ...] = ()
+    sign_phases: bool = True
 
     def __post_init__(self) -> None:
         if self.step is not None and not (float(self.step) > 0 and float(self.step) < 1e300):
