@@ -230,11 +230,10 @@ class Phases:
         k = _switch_index(m, text)
         return Z.intersect_slab(m.switches.a[k], -m.switches.b[k], -m.switches.b[k])
 
-    def rates(self, mode: str, text: str, Z: Zonotope, signs: np.ndarray
-              ) -> tuple[np.ndarray, np.ndarray]:
-        """``(up, down)``: enclosures of ``ds/dt`` over ``Z`` with the flow above
-        (``sigma = +1``) and below (``sigma = -1``) the surface of switch ``text``, the
-        other signs in ``signs`` (``(n_sigma, 2)`` ranges)."""
+    def _rate_inputs(self, mode: str, text: str, signs: np.ndarray, side: float
+                     ) -> tuple[MeanValue, int, np.ndarray, np.ndarray]:
+        """The mode's rates of its switching functions (built once), the index of switch
+        ``text``, and the input box with its sign on ``side`` and the others in ``signs``."""
         m = self.system.modes[mode]
         k = _switch_index(m, text)
         if mode not in self._rates:
@@ -244,10 +243,18 @@ class Phases:
         lo_in, hi_in = self.system.input_box(mode)
         u_lo = np.r_[lo_in[:n_in], signs[:, 0]]
         u_hi = np.r_[hi_in[:n_in], signs[:, 1]]
+        u_lo[n_in + k] = u_hi[n_in + k] = side
+        return self._rates[mode], k, u_lo, u_hi
+
+    def rates(self, mode: str, text: str, Z: Zonotope, signs: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray]:
+        """``(up, down)``: enclosures of ``ds/dt`` over ``Z`` with the flow above
+        (``sigma = +1``) and below (``sigma = -1``) the surface of switch ``text``, the
+        other signs in ``signs`` (``(n_sigma, 2)`` ranges)."""
         out = []
         for side in (1.0, -1.0):
-            u_lo[n_in + k] = u_hi[n_in + k] = side
-            lo, hi = self._rates[mode](Z, u_lo, u_hi)
+            rate, k, u_lo, u_hi = self._rate_inputs(mode, text, signs, side)
+            lo, hi = rate(Z, u_lo, u_hi)
             out.append(np.array([lo[k], hi[k]]))
         return out[0], out[1]
 
@@ -260,15 +267,8 @@ class Phases:
         itself where no form is found; ``None`` where no state qualifies."""
         if Z is None:
             return None
-        m = self.system.modes[mode]
-        k = _switch_index(m, text)
-        self.rates(mode, text, Z, signs)  # builds the mode's MeanValue
-        n_in = len(m.usyms) - len(m.sigma_index)
-        lo_in, hi_in = self.system.input_box(mode)
-        u_lo = np.r_[lo_in[:n_in], signs[:, 0]]
-        u_hi = np.r_[hi_in[:n_in], signs[:, 1]]
-        u_lo[n_in + k] = u_hi[n_in + k] = side
-        form = self._rates[mode].linear_form(Z, u_lo, u_hi)
+        rate, k, u_lo, u_hi = self._rate_inputs(mode, text, signs, side)
+        form = rate.linear_form(Z, u_lo, u_hi)
         if form is None:
             return Z
         v_lo, v_hi, grad, slack = form
@@ -312,25 +312,19 @@ class PhaseWatch:
 
     Examples
     --------
-    The block of :class:`Phases` above the surface, braking: its second step reaches
-    ``v = 0``, and the run is handed over when the flowpipe ends.
+    The friction oscillator (``v' = -4 x - 0.5 sign(v)``) above ``v = 0`` at ``x = 1``,
+    braking: its second step set reaches the surface, and the run of that one step is handed
+    over when the flowpipe ends.
 
     >>> import hybridlab
     >>> from hybridlab.reachability.system import build_system
-    >>> c = hybridlab.compile_model(hybridlab.loads_model('''
-    ... name = "block"
-    ... states = { v = 0.0 }
-    ... [modes.m]
-    ... flow = { v = "-1 - 2*sign(v)" }
-    ... [initial]
-    ... mode = "m"
-    ... '''))
+    >>> c = hybridlab.compile_model(hybridlab.load_model("models/friction_oscillator.toml"))
     >>> phases = Phases(build_system(c, c.parameter_vector(), {}, {}))
     >>> runs = []
-    >>> watch = PhaseWatch(phases, "m", (("sign(v)", 1.0),), Zonotope([0.5], [[0.1]]),
+    >>> watch = PhaseWatch(phases, "move", (("sign(v)", 1.0),), Zonotope([1.0, 0.5], [[0], [0.1]]),
     ...                    lambda Z: np.array([[1.0, 1.0]]), lambda *jump: runs.append(jump))
-    >>> for v in (0.4, 0.1):   # step sets [0.3, 0.5] and [0.0, 0.2] of v
-    ...     H = Zonotope([v], [[0.1]])
+    >>> for v in (0.4, 0.1):   # step sets with v in [0.3, 0.5], then [0.0, 0.2]
+    ...     H = Zonotope([1.0, v], [[0.0], [0.1]])
     ...     _ = watch.step(H, H, H, H, 0.0, 0.1)
     >>> watch.flush()
     >>> [(text, side, to, len(run)) for text, side, to, run in runs]
