@@ -250,3 +250,27 @@ reset = { h = "h_top", v = "0" }
     first = min(after, key=lambda rs: rs.t[0])
     lo, hi = first.bounds()[0]
     assert 4.9 <= lo <= 5.0 <= hi <= 5.1
+
+
+def test_bound_reads_a_definition_local_to_the_sets_mode():
+    # `out` is defined per mode: 0.1 h while filling, 0.3 h while draining
+    model = hybridlab.loads_model('''
+name = "tank"
+parameters = { q = 0.5 }
+states = { h = 1.0 }
+modes.fill = { flow = { h = "q - out" }, definitions = { out = "0.1*h" } }
+modes.drain = { flow = { h = "-out" }, definitions = { out = "0.3*h" } }
+[[transitions]]
+name = "full"
+source = "fill"
+target = "drain"
+guard = "h >= 1.2"
+[initial]
+mode = "fill"
+''')
+    result = hybridlab.reach(model, initial={"h": (1.0, 1.1)}, t_end=2.0, step=0.05)
+    for s in (result.sets[0], next(s for s in result.sets if s.mode == "drain")):
+        (h_lo, h_hi), gain = s.bounds()[0], 0.1 if s.mode == "fill" else 0.3
+        lo, hi = s.bound("out")
+        assert lo == pytest.approx(gain * h_lo, rel=1e-9)
+        assert hi == pytest.approx(gain * h_hi, rel=1e-9)

@@ -249,7 +249,8 @@ class _Analysis:
             inputs={s: system.inputs[str(s)] for s in
                     (next(iter(system.modes.values())).usyms[:len(system.inputs)]
                      if system.modes else ())},
-            t_index=system.time_index)
+            t_index=system.time_index, modes=self.compiled.symbolic.modes,
+            local_names=self.compiled.symbolic.local_names)
         self.n = system.n_states
         self.no_rows = Rows([], system.zsyms)
         self.split_direction: np.ndarray | None = None  # see ReachResult.split_direction

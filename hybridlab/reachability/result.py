@@ -6,7 +6,7 @@ import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import sympy as sp
@@ -16,6 +16,9 @@ from hybridlab.model.expressions import as_expression, parse_expression
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.sets import Zonotope
 from hybridlab.symbolic.intervals import Interval, IntervalFunction
+
+if TYPE_CHECKING:
+    from hybridlab.model.checks import SymbolicMode
 
 __all__ = ["ReachSet", "ReachResult", "merge_results"]
 
@@ -29,6 +32,9 @@ class _Context:
     values: Mapping[sp.Symbol, float]
     inputs: Mapping[sp.Symbol, tuple[float, float]]
     t_index: int | None
+    #: each mode's local definitions (a name defined per mode reads the set's mode's)
+    modes: Mapping[str, SymbolicMode] = field(default_factory=dict)
+    local_names: frozenset[str] = frozenset()
     #: compiled bound() expressions, per result (so thousands of sets parse each only once)
     cache: dict = field(default_factory=dict, repr=False, compare=False)
 
@@ -53,12 +59,18 @@ class _Context:
         self.cache[exprs] = out
         return out
 
-    def compile(self, expr: str | sp.Expr) -> tuple[Any, ...]:
-        """``("linear", a, b)`` or ``("interval", f, uses_t)`` for :meth:`ReachSet.bound`."""
+    def compile(self, expr: str | sp.Expr, mode: str | None = None) -> tuple[Any, ...]:
+        """``("linear", a, b)`` or ``("interval", f, uses_t)`` for :meth:`ReachSet.bound`;
+        a definition local to modes reads ``mode``'s."""
         key = expr if isinstance(expr, str) else as_expression(expr)
         if key in self.cache:
             return self.cache[key]
+        if (mode, key) in self.cache:
+            return self.cache[(mode, key)]
         e: sp.Expr = parse_expression(expr, self.namespace) if isinstance(expr, str) else key
+        local = any(str(s).startswith("_local_") for s in e.free_symbols)
+        if local and mode is not None and mode in self.modes:
+            e = self.modes[mode].scoped(e, self.local_names)
         e = e.xreplace(dict(self.values))
         t_sym = sp.Symbol("t", real=True)
         zs = self.zsyms
@@ -76,7 +88,7 @@ class _Context:
             uses_t = self.t_index is None and t_sym in free
             syms = list(zs) + list(self.inputs) + ([t_sym] if uses_t else [])
             out = ("interval", IntervalFunction([e], syms), uses_t)
-        self.cache[key] = out
+        self.cache[(mode, key) if local else key] = out
         return out
 
 
@@ -146,7 +158,8 @@ class ReachSet:
         symbols, or a text in the model's expression language. Exact (support
         function) when it is linear in the states and uncertain parameters;
         interval arithmetic over the set's interval hull otherwise. Uncertain
-        parameters range over their intervals, ``t`` over :attr:`t`.
+        parameters range over their intervals, ``t`` over :attr:`t`. A name defined
+        per mode (a mode's ``definitions``) reads this set's mode's definition.
 
         Examples
         --------
@@ -158,7 +171,7 @@ class ReachSet:
         True
         """
         ctx = self._context
-        compiled = ctx.compile(expr)
+        compiled = ctx.compile(expr, self.mode)
         if compiled[0] == "linear":
             _, a, b = compiled
             lo, hi = _linear_bounds(self._full.supports(np.vstack([a, -a])), np.array([b]))[0]
