@@ -34,9 +34,9 @@ the sets that change phase to the slab where the rate that decides it has the ri
 (a slide's exit states have that rate exactly 0).
 
 An item is split when its set is *crossing* a linear switching surface that has an
-equivalent control: it lies beyond it on both sides by more than ``_ON_SURFACE`` of the
-surface's scale (nearer sets are the surface rules'), the rest of the flow carries all of
-its states one way (``a f0`` has one sign over the set, the other signs free), and the sign
+equivalent control: it lies beyond it on both sides by more than the surface rules'
+tolerance (:func:`~hybridlab.reachability.surfaces.on_surface_tolerance`; nearer sets are
+theirs), the rest of the flow carries all of its states one way (``a f0`` has one sign over the set, the other signs free), and the sign
 is strong: it moves the switching function within one step by at least ``_STRONG`` of the
 set's extent across the surface. A set that holds states pushed both ways holds a region
 where the friction can stop them; there a sliding set's exits, with rates enclosed loosely,
@@ -58,6 +58,7 @@ import sympy as sp
 
 from hybridlab.reachability.meanvalue import MeanValue
 from hybridlab.reachability.sets import Zonotope
+from hybridlab.reachability.surfaces import on_surface_tolerance
 from hybridlab.reachability.system import ModeSystem, ResetMap, Rows, System
 from hybridlab.symbolic.intervals import IntervalFunction
 
@@ -71,9 +72,6 @@ Phase = tuple[tuple[str, float], ...]
 """The phases of an item: ``(switching function's text, side)`` pairs, side ``+1`` above,
 ``-1`` below, ``0`` sliding on the surface; sorted by text."""
 
-#: a set straddles a surface when it reaches beyond it on both sides by more than this,
-#: relative to the surface's scale (nearer sets are the surface rules', as in surfaces.py)
-_ON_SURFACE = 1e-9
 #: a straddled surface is split at when its sign moves the switching function, within one
 #: step, by at least this fraction of the set's extent along the normal (a weak sign, such
 #: as a light bearing friction, costs less free than the branches its phases would take)
@@ -169,8 +167,7 @@ class Phases:
         for k in np.flatnonzero(m.switches.linear).tolist():
             text = m.switches.texts[k]
             lo, hi = rng[k]
-            scale = 1.0 + abs(m.switches.b[k]) + float(np.abs(m.switches.a[k]) @ np.abs(P.center))
-            margin = _ON_SURFACE * scale
+            margin = on_surface_tolerance(m.switches, k, P.center)
             if text in taken or not (lo < -margin and hi > margin):
                 continue
             gain = self._gain(mode, k)

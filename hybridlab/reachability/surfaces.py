@@ -39,9 +39,9 @@ import numpy as np
 from hybridlab.reachability.linear import StepError
 from hybridlab.reachability.meanvalue import MeanValue
 from hybridlab.reachability.sets import Zonotope
-from hybridlab.reachability.system import ModeSystem
+from hybridlab.reachability.system import ModeSystem, Rows
 
-__all__ = ["SurfaceSteps", "signs_box"]
+__all__ = ["SurfaceSteps", "on_surface_tolerance", "signs_box"]
 
 #: how near 0 a switching function must be over a set to count as on its surface or side
 #: (relative to the function's scale); nearer states are bloated by their time to reach it
@@ -50,6 +50,21 @@ _ON_SURFACE = 1e-9
 _MARGIN = 1e-6
 #: revisions of a step's plan (a slide that breaks away, an equivalent control widened)
 _REVISIONS = 4
+
+
+def on_surface_tolerance(switches: Rows, k: int, center: np.ndarray) -> float:
+    """How near 0 the linear switching function ``k`` must be over a set centred at
+    ``center`` for the set to count as on its surface or side (``_ON_SURFACE`` of its scale).
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> v = sp.Symbol("v", real=True)
+    >>> on_surface_tolerance(Rows([v - 2], [v]), 0, np.array([1.0]))
+    4e-09
+    """
+    return _ON_SURFACE * (1.0 + abs(float(switches.b[k]))
+                          + float(np.abs(switches.a[k]) @ np.abs(center)))
 
 
 def signs_box(signs: np.ndarray) -> np.ndarray:
@@ -162,8 +177,7 @@ class SurfaceSteps:
         m = self.mode
         plan: dict[int, float] = {}
         for k in np.flatnonzero((sig[:, 0] < sig[:, 1]) & m.switches.linear).tolist():
-            eps = _ON_SURFACE * (1.0 + abs(m.switches.b[k])
-                                 + float(np.abs(m.switches.a[k]) @ np.abs(P.center)))
+            eps = on_surface_tolerance(m.switches, k, P.center)
             upper, lower = rng[k, 0] >= -eps, rng[k, 1] <= eps
             if not (upper or lower):
                 continue
