@@ -36,16 +36,15 @@ the sets that change phase to the slab where the rate that decides it has the ri
 An item is split when its set is *crossing* a linear switching surface that has an
 equivalent control: it lies beyond it on both sides by more than the surface rules'
 tolerance (:func:`~hybridlab.reachability.surfaces.on_surface_tolerance`; nearer sets are
-theirs), the rest of the flow carries all of its states one way (``a f0`` has one sign over the set, the other signs free), and the sign
-is strong: it moves the switching function within one step by at least ``_STRONG`` of the
-set's extent across the surface. A set that holds states pushed both ways holds a region
-where the friction can stop them; there a sliding set's exits, with rates enclosed loosely,
-may go either way step after step and the phases multiply instead of tightening, so such a
-set keeps the surface rules.
-Each part, and each phase change, counts as a jump towards ``max_jumps``; at most
-``MAX_PHASE_ITEMS`` items of an analysis enter a phase. A phase survives a transition of
-the model when the target mode has the same switching function and the reset keeps its
-variables.
+theirs), the rest of the flow carries all of its states one way (``a f0`` has one sign over
+the set, the other signs free), and the sign is strong: it moves the switching function
+within one step by at least ``_STRONG`` of the set's extent across the surface. A set that
+holds states pushed both ways holds a region where the friction can stop them; there a
+sliding set's exits, with rates enclosed loosely, may go either way step after step and the
+phases multiply instead of tightening, so such a set keeps the surface rules. Each part, and
+each phase change, counts as a jump towards ``max_jumps``; at most ``MAX_PHASE_ITEMS`` items
+of an analysis enter a phase. A phase survives a transition of the model when the target
+mode has the same switching function and the reset keeps its variables.
 """
 
 from __future__ import annotations
