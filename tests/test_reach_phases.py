@@ -82,3 +82,23 @@ def test_a_set_with_states_pushed_both_ways_is_not_split():
     free = hybridlab.reach(OSCILLATOR, options=ReachOptions(sign_phases=False), **kw)
     assert phased.complete and len(phased.sets) == len(free.sets)
     assert phased.bounds == free.bounds
+
+
+def test_with_every_sign_free_an_affine_flow_grows_as_its_inclusion_not_by_wrapping():
+    # x'' = -4 x - 0.5 u, u in [-1, 1] at every instant: in the coordinates (x, v/2) the
+    # input pushes the radius out at 0.25 |sin| per second at most, so from the box (radius
+    # sqrt(2)) the largest |x| over 10 s is sqrt(2) + 0.25 (2/pi) 10 = 3.01. Stepped from set
+    # to set and reduced at each step, the flowpipe wraps to 3.36; an affine mode whose signs
+    # are all free keeps the sum of the input's steps apart from its turning sets (3.05)
+    box = {"x": (-1.0, 1.0), "v": (-2.0, 2.0)}
+    free = hybridlab.reach(OSCILLATOR, initial=box, t_end=10.0,
+                           options=ReachOptions(sign_phases=False))
+    assert free.complete
+    assert max(-free.bounds["x"][0], free.bounds["x"][1]) < 3.1
+    times = np.linspace(0.0, 10.0, 201)
+    for x0 in box["x"]:
+        for v0 in box["v"]:
+            run = hybridlab.simulate(OSCILLATOR, initial={"x": x0, "v": v0}, t_end=10.0,
+                                     rtol=1e-10, atol=1e-12)
+            states = np.array([run(t) for t in times])
+            assert free.covers(times, states, tol=1e-7).all(), (x0, v0)

@@ -13,6 +13,7 @@ from hybridlab.errors import HybridlabError
 from hybridlab.model.expressions import as_expression
 from hybridlab.model.schema import Model
 from hybridlab.reachability.bisection import bisect
+from hybridlab.reachability.constants import mode_constants, with_constants
 from hybridlab.reachability.hybrid import run_analysis
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.result import ReachResult, merge_results
@@ -177,6 +178,8 @@ def reach(
     else:
         P0 = X0
 
+    # discrete variables constant in a mode stop being read there (pieces of P0 keep them)
+    system = with_constants(system, mode_constants(system, mode, P0))
     opts = (options or ReachOptions()).updated(**option_overrides)
     check_observed(compiled, opts.observed)
     if opts.step is None:

@@ -661,7 +661,7 @@ class _Analysis:
                 try:
                     post = self._reset(tr.index, cut)
                 except StepError as exc:
-                    self._reason(str(exc))
+                    self._too_wide_for_reset(exc)
                     continue
                 self.push(item.id, tr.target, post, item.t_lo, item.t_hi, item.jumps + 1,
                           phase=self._carried(item, tr))
@@ -770,6 +770,12 @@ class _Analysis:
             return None
         return Box(box[:, 0], box[:, 1]).to_zonotope()
 
+    def _too_wide_for_reset(self, exc: StepError) -> None:
+        """A set on which a reset is unbounded: like a remainder that does not settle, a set
+        too wide for its enclosure, which a smaller set (step or piece) may avoid."""
+        self.too_wide.add(str(exc))
+        self._reason(str(exc))
+
     def _reset(self, index: int, Z: Zonotope) -> Zonotope:
         reset = self.system.resets[index]
         M = reset.matrix
@@ -777,11 +783,12 @@ class _Analysis:
             return Z.linear_map(M, reset.offset)
         box = Z.bounds()
         z_star = Z.center
-        value = reset.value(z_star)
-        lo, hi = reset.jacobian_interval(box[:, 0], box[:, 1])
         nz = Z.dim
-        J_lo, J_hi = lo.reshape(nz, nz), hi.reshape(nz, nz)
-        J_mid, J_rad = 0.5 * (J_lo + J_hi), 0.5 * (J_hi - J_lo)
+        with np.errstate(invalid="ignore", over="ignore"):  # checked just below
+            value = reset.value(z_star)
+            lo, hi = reset.jacobian_interval(box[:, 0], box[:, 1])
+            J_lo, J_hi = lo.reshape(nz, nz), hi.reshape(nz, nz)
+            J_mid, J_rad = 0.5 * (J_lo + J_hi), 0.5 * (J_hi - J_lo)
         if not (np.all(np.isfinite(J_mid)) and np.all(np.isfinite(value))):
             raise StepError(f"reset of transition {self.compiled.transitions[index].name!r} "
                             "is unbounded over the set")
@@ -822,7 +829,7 @@ class _Analysis:
             try:
                 post = self._reset(tr.index, pre)
             except StepError as exc:
-                self._reason(str(exc))
+                self._too_wide_for_reset(exc)
                 continue
             self.push(item.id, tr.target, post, t_lo, min(t_hi, self.t_end), item.jumps + 1,
                       phase=self._carried(item, tr))

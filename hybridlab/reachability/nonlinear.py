@@ -97,8 +97,9 @@ class FlowStepper(SurfaceSteps):
         self._affine_A: np.ndarray | None = None
         self._reduction_basis: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._basis_sought = False  # an affine mode's eigenbasis is sought once
-        # an affine mode without switching functions is stepped by an AffineChain, which
-        # continues while it is handed back its own last end set
+        # an affine mode is stepped by an AffineChain while it has no switching function
+        # or every sign is free over the set (the signs are then an input in [-1, 1]); the
+        # chain continues while it is handed back its own last end set
         self._chain: AffineChain | None = None
         self._chain_end: Zonotope | None = None
         # with flowpipe="taylor", a nonlinear mode's Taylor model continues while the
@@ -177,10 +178,9 @@ class FlowStepper(SurfaceSteps):
             When the remainder does not settle within ``options.remainder_iterations``
             (the set or the step is too large for the linearisation).
         """
-        chain = self._chain
-        if chain is not None and P is self._chain_end and chain.prop.r == r and not chain.worn:
-            self._chain_end, H = chain.advance()
-            return self._chain_end, H
+        chain = self.chain_for(P, r)
+        if self.n_sigma == 0 and chain is not None:
+            return self._advance(chain)
         taylor = self._taylor_flowpipe()
         if taylor is not None:
             return self._taylor_step(taylor, P, r)
@@ -190,8 +190,16 @@ class FlowStepper(SurfaceSteps):
         on_surface = self._surface_step(P, r, sig)
         if on_surface is not None:
             return on_surface
-        P_next, H, sig = self._settled(P, r, sig, self.mode)
+        if np.all(sig[:, 0] < sig[:, 1]) and chain is not None:
+            P_next, H = self._advance(chain)  # every sign still free: the chain's input holds
+        else:
+            P_next, H, sig = self._settled(P, r, sig, self.mode)
         return self._attractive_cut(P, P_next, H, sig, sig[:, 0] < sig[:, 1])
+
+    def _advance(self, chain: AffineChain) -> tuple[Zonotope, Zonotope]:
+        """The next step of the affine chain."""
+        self._chain_end, H = chain.advance()
+        return self._chain_end, H
 
     def _taylor_flowpipe(self) -> TaylorFlowpipe | None:
         """The mode's Taylor-model flowpipe when ``flowpipe="taylor"`` was asked for."""
@@ -275,7 +283,9 @@ class FlowStepper(SurfaceSteps):
             self._basis_sought = True
         if m.affine:
             W = Zonotope(np.zeros(nz), B_in) if B_in.size else None
-            if self.n_sigma or self.options.bloat or m is not self.mode:
+            # a chain needs the same input at every step: every sign free (or none)
+            signs_free = bool(np.all(sig[:, 0] == -1.0) and np.all(sig[:, 1] == 1.0))
+            if not signs_free or self.options.bloat or m is not self.mode:
                 return affine_step(P, prop, W, self.options.bloat)
             self._chain = AffineChain(prop, P, W, self.options.order, self._basis())
             self._chain_end = self._chain.first[0]

@@ -12,7 +12,9 @@ Discrete variables are model states here, with the flow 0 in every mode: dimensi
 sets that stay one point while their value is known (their initial value is one number,
 and a reset to a constant or to known values keeps it one) and take the width of what a
 reset assigns from continuous states (``level = x``). They are not split out of the sets
-by value; a boolean guard ``armed`` is the row ``armed - 1/2 >= 0``.
+by value; a boolean guard ``armed`` is the row ``armed - 1/2 >= 0``. Where every way into a
+mode gives one the same number, :mod:`~hybridlab.reachability.constants` substitutes it in
+what that mode reads.
 
 Everything here is derived once per :func:`reach` call from the sympy form;
 model text is never evaluated.

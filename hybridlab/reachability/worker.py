@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hybridlab.reachability.constants import mode_constants, with_constants
 from hybridlab.reachability.hybrid import run_analysis
 from hybridlab.reachability.options import ReachOptions
 from hybridlab.reachability.result import ReachResult
@@ -93,5 +94,6 @@ def run_piece(piece: Piece) -> ReachResult:
     """
     compiled = compiled_for(piece.model, piece.key)
     system = build_system(compiled, piece.p, dict(piece.uncertain), dict(piece.bounded))
+    system = with_constants(system, mode_constants(system, piece.mode, piece.initial))
     return run_analysis(system, piece.options, piece.mode, piece.initial, piece.t_start,
                         piece.t_end, piece.p, piece.stop_unproved)
