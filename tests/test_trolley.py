@@ -162,3 +162,17 @@ def test_the_components_give_the_events_of_the_flat_model(trolley):
         assert abs(ours[0] - theirs[0]) <= 1e-10
         assert match_modes(theirs[2], [ours[2]]) == [ours[2]]
         assert match_modes(theirs[3], [ours[3]]) == [ours[3]]
+
+
+def test_the_linearised_trolley_follows_the_trolley_through_its_stop_and_return(trolley):
+    # models/trolley_linear.toml: the same controller, sensors, logic and friction laws, the
+    # plant linearised about the pendulum's downward rest (the swing stays below 0.3 rad)
+    linear = hybridlab.load_model(ROOT / "models" / "trolley_linear.toml")
+    runs = [hybridlab.simulate(m, t_end=2.5) for m in (trolley, linear)]
+    names = [[e.transition for e in r.jumps] for r in runs]
+    assert names[0] == names[1] and "arrive" in names[0]
+    grid = np.linspace(0.0, 2.5, 501)
+    full, lin = (r.observe(["x", "phi"], grid) for r in runs)
+    assert np.abs(full[0] - lin[0]).max() < 3e-4        # m, over a 0.3 m move
+    assert np.abs(full[1] - lin[1]).max() < 0.01        # rad, over a 0.27 rad swing
+    assert np.abs(full[1]).max() > 0.25
