@@ -274,3 +274,8 @@ mode = "fill"
         lo, hi = s.bound("out")
         assert lo == pytest.approx(gain * h_lo, rel=1e-9)
         assert hi == pytest.approx(gain * h_hi, rel=1e-9)
+        assert s.bound_all(["h", "out"])[1].tolist() == [lo, hi]
+    # a spec over it reads each set's mode too: out <= 0.4 holds (0.3 h <= 0.36 draining)
+    verdict = hybridlab.verify.check_safety(model, initial={"h": (1.0, 1.1)}, t_end=2.0,
+                                            safe="out <= 0.4", step=0.05)
+    assert verdict.safe, verdict.reason

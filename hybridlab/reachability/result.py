@@ -38,16 +38,18 @@ class _Context:
     #: compiled bound() expressions, per result (so thousands of sets parse each only once)
     cache: dict = field(default_factory=dict, repr=False, compare=False)
 
-    def stacked(self, exprs: tuple[str | sp.Expr, ...]
+    def stacked(self, exprs: tuple[str | sp.Expr, ...], mode: str | None = None
                 ) -> tuple[list[int], np.ndarray, np.ndarray, list[int]]:
         """``(rows, D, b, others)``: the indices of the expressions linear in the states,
         their directions ``a`` then ``-a`` stacked in ``D`` with offsets ``b``, and the
-        indices of the others (cached, so a set's rows are stacked once per result)."""
-        if exprs in self.cache:
-            return self.cache[exprs]
+        indices of the others (cached, so a set's rows are stacked once per result and
+        mode); a definition local to modes reads ``mode``'s."""
+        key = ("stacked", mode, exprs)
+        if key in self.cache:
+            return self.cache[key]
         rows, others, A, b = [], [], [], []
         for k, expr in enumerate(exprs):
-            compiled = self.compile(expr)
+            compiled = self.compile(expr, mode)
             if compiled[0] == "linear":
                 rows.append(k)
                 A.append(compiled[1])
@@ -56,7 +58,7 @@ class _Context:
                 others.append(k)
         D = np.vstack([np.array(A), -np.array(A)]) if rows else np.empty((0, len(self.zsyms)))
         out = (rows, D, np.array(b), others)
-        self.cache[exprs] = out
+        self.cache[key] = out
         return out
 
     def compile(self, expr: str | sp.Expr, mode: str | None = None) -> tuple[Any, ...]:
@@ -201,7 +203,7 @@ class ReachSet:
         if known is not None:
             return known.copy()
         out = np.empty((len(exprs), 2))
-        rows, directions, b, others = self._context.stacked(key)
+        rows, directions, b, others = self._context.stacked(key, self.mode)
         for k in others:
             out[k] = self.bound(exprs[k])
         if rows:
