@@ -384,3 +384,30 @@ def test_the_crane_flowpipe_with_default_options_holds_sampled_runs_and_its_boun
         assert inside.all(), (x0, grid[~inside][:3])
         lowest = min(lowest, float(X[:, 0].min()))
     assert -1.8 < result.bounds["x"][0] <= lowest < -1.58
+
+
+def test_the_one_step_input_set_keeps_its_first_order_term_as_generators():
+    # a cart under a stiff PD position loop (gains 1e4 and 200) pushed by a force whose sign
+    # may flip at any instant within the step: int_0^r e^{A (r - s)} b u(s) ds. The first
+    # two terms of its series stay generators; what is boxed is a few per cent of them
+    A = np.array([[0.0, 1.0], [-1.0e4, -200.0]])
+    b = np.array([0.0, 5.0])
+    r = 0.002
+    prop = Propagator.build(A, np.zeros(2), r, 10)
+    G, box = prop.input_set(Zonotope(np.zeros(2), b[:, None]), 2)
+    main, first, boxed = G[:, 0], G[:, 1], np.abs(G[:, 2:]).sum(axis=1) + box
+    assert np.allclose(main, r * b) and np.allclose(first, A @ b * r**2 / 2)
+    assert boxed[1] < 0.25 * abs(first[1])
+    rng = np.random.default_rng(11)
+    for _ in range(200):  # bang-bang inputs with random switching instants, integrated exactly
+        cuts = np.sort(rng.uniform(0.0, r, size=rng.integers(0, 4)))
+        edges = np.r_[0.0, cuts, r]
+        signs = rng.choice([-1.0, 1.0], size=edges.size - 1)
+        x = np.zeros(2)
+        for (s0, s1), sign in zip(itertools.pairwise(edges), signs, strict=True):
+            aug = np.zeros((3, 3))
+            aug[:2, :2], aug[:2, 2] = A, b * sign
+            x = (expm(aug * (s1 - s0)) @ np.r_[x, 1.0])[:2]
+        # the set: the generators' zonotope plus the box
+        lifted = Zonotope(np.zeros(2), np.hstack([G, np.diag(box)]))
+        assert lifted.contains_points(x[None, :], 1e-15)[0], (edges, signs)

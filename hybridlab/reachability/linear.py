@@ -106,8 +106,9 @@ class TaylorBlock:
     terms ``i >= 3``, the tail and the rounding of every term entrywise;
     ``F_abs = |F2| + F_rest``; ``F_next`` holds the terms ``rho_i M^i r^i / i!`` for
     ``i = 3 .. 5`` and ``F_tail`` bounds the rest as ``F_rest`` does (a centre's
-    correction takes those terms as vectors); ``input_tail`` bounds
-    ``sum_{i>=1} |M^i| r^(i+1)/(i+1)!`` and its tail.
+    correction takes those terms as vectors); ``input_first`` is the first-order input
+    term ``M r^2 / 2`` and ``input_tail`` bounds ``sum_{i>=2} |M^i| r^(i+1)/(i+1)!``,
+    the tail and the rounding of the first.
 
     Examples
     --------
@@ -120,6 +121,7 @@ class TaylorBlock:
     F_rest: np.ndarray
     F_abs: np.ndarray
     input_tail: np.ndarray
+    input_first: np.ndarray
     F_next: tuple[np.ndarray, ...] = ()
     F_tail: np.ndarray | None = None
 
@@ -142,12 +144,17 @@ class TaylorBlock:
         F_tail = np.zeros((k, k))
         F_next = []
         tail = np.zeros((k, k))
+        first = np.zeros((k, k))
         for i in range(1, eta + 1):
             term = term @ M * (r / i)
             abs_term = abs_term @ abs_M * (r / i)
             # |fl(term) - term| <= gamma(i (k + 2)) |M|^i r^i / i! (i rounded products)
             rounding = gamma(i * (k + 2)) * abs_term
-            tail += (np.abs(term) + rounding) * (r / (i + 1))
+            if i == 1:  # kept as a matrix: the input's generators map through it
+                first = term * (r / 2)
+                tail += (rounding + gamma(1) * np.abs(term)) * (r / 2)
+            else:
+                tail += (np.abs(term) + rounding) * (r / (i + 1))
             if i == 2:
                 F2 = term * -0.25  # rho_2 = 2^-2 - 2^-1
                 F_rest += 0.25 * rounding
@@ -164,7 +171,7 @@ class TaylorBlock:
         F_rest = up(F_rest + E)
         return TaylorBlock(F2=F2, F_rest=F_rest, F_abs=up(np.abs(F2) + F_rest),
                            input_tail=up(tail + E * r), F_next=tuple(F_next),
-                           F_tail=up(F_tail + E))
+                           F_tail=up(F_tail + E), input_first=first)
 
 
 def _nonneg_product(L: np.ndarray, R: np.ndarray) -> np.ndarray:
@@ -384,26 +391,42 @@ class Propagator:
         ``int_0^t e^{A (t - s)} w(s) ds`` for every ``t`` in ``[0, r]``."""
         if W is None or not W.generators.size:
             return np.zeros((n, 0)), np.zeros(n)
+        # the input's own term r w and its first-order term (A r^2 / 2) w stay generators
+        # (a bound of both moves coherently however the input varies within the step);
+        # the terms of order two and above, and every rounding, are boxed
         w_rad = np.r_[W.radius(), 0.0]
         basis = self.basis
+        F = self.slow.input_first
         if basis is None:
-            return self.r * W.generators, up(self.slow.input_tail @ w_rad)[:n]
+            G = np.vstack([W.generators, np.zeros((1, W.generators.shape[1]))])
+            first = F @ G
+            box = self.slow.input_tail @ w_rad + _column_sum(product_error(np.abs(F), np.abs(G)))
+            return np.hstack([self.r * W.generators, first[:n]]), up(box)[:n]
         Sinv = basis.inv_mid[:, :n]
         Z = Sinv @ W.generators
         z_err = up(basis.inv_rad @ w_rad + product_error(np.abs(basis.inv_mid), w_rad))
         z_rad = up(np.sum(np.abs(Z), axis=1) + z_err)
         s = basis.blocks[0]
+        first = F @ Z[s]
         box = np.zeros(n + 1)
-        box[s] = self.slow.input_tail @ z_rad[s] + self.r * z_err[s]
+        box[s] = (self.slow.input_tail @ z_rad[s] + self.r * z_err[s] + np.abs(F) @ z_err[s]
+                  + _column_sum(product_error(np.abs(F), np.abs(Z[s]))))
         for b, blk in zip(basis.blocks[1:], self.fast, strict=True):
             box[b] = blk.gain @ z_rad[b]
         box = up(box + self.input_coupling * float(np.max(z_rad)))
         S = basis.S
         slow_gens = S[:, s] @ (self.r * Z[s])
+        first_gens = S[:, s] @ first
         err = (product_error(np.abs(S), box)
-               + product_error(np.abs(S[:, s]), self.r * z_rad[s]))
-        gens = np.hstack([slow_gens[:n], (S * box[None, :])[:n]])
+               + product_error(np.abs(S[:, s]), self.r * z_rad[s])
+               + _column_sum(product_error(np.abs(S[:, s]), np.abs(first))))
+        gens = np.hstack([slow_gens[:n], first_gens[:n], (S * box[None, :])[:n]])
         return gens, up(err[:n])
+
+
+def _column_sum(errors: np.ndarray) -> np.ndarray:
+    """Per row, the sum over the columns of a matrix of error bounds, rounded up."""
+    return up(np.sum(errors, axis=1))
 
 
 Homogeneous = tuple[np.ndarray, np.ndarray, np.ndarray]
