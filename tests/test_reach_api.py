@@ -5,6 +5,7 @@ from __future__ import annotations
 import concurrent.futures as cf
 import json
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -279,3 +280,26 @@ mode = "fill"
     verdict = hybridlab.verify.check_safety(model, initial={"h": (1.0, 1.1)}, t_end=2.0,
                                             safe="out <= 0.4", step=0.05)
     assert verdict.safe, verdict.reason
+
+
+def test_a_scheduled_reset_unbounded_over_the_set_ends_its_branch_with_the_reason():
+    # u := 1/x every 0.1 s from x in [-1, 1]: the reset has no bound over the set
+    model = hybridlab.loads_model('''
+name = "reciprocal"
+states = { x = 1.0, u = 0.0 }
+[modes.run]
+flow = { x = "-x", u = "0" }
+[[transitions]]
+name = "sample"
+source = "run"
+target = "run"
+schedule = { period = 0.1 }
+reset = { u = "1/x" }
+[initial]
+mode = "run"
+''')
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no RuntimeWarning leaks from the reset's evaluation
+        result = hybridlab.reach(model, initial={"x": (-1.0, 1.0)}, t_end=0.5, step=0.05)
+    assert not result.complete and result.too_wide
+    assert "reset of transition 'sample' is unbounded" in result.incomplete_reasons[0]

@@ -747,9 +747,13 @@ class _Analysis:
             piece = self._cut(P, rows, self.no_rows)
             if piece is None:
                 continue
-            post = self._reset(tr.index, piece)
-            self.push(item.id, tr.target, post, now, now, item.jumps + 1,
-                      (now, previous | fired), self._carried(item, tr))
+            try:
+                post = self._reset(tr.index, piece)
+            except StepError as exc:  # the branch is not followed: the result says so
+                self._too_wide_for_reset(exc)
+            else:
+                self.push(item.id, tr.target, post, now, now, item.jumps + 1,
+                          (now, previous | fired), self._carried(item, tr))
             if rows.size == 0 or np.all(rng[:, 0] > 0):
                 return True
         return False
@@ -784,7 +788,7 @@ class _Analysis:
         box = Z.bounds()
         z_star = Z.center
         nz = Z.dim
-        with np.errstate(invalid="ignore", over="ignore"):  # checked just below
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # checked below
             value = reset.value(z_star)
             lo, hi = reset.jacobian_interval(box[:, 0], box[:, 1])
             J_lo, J_hi = lo.reshape(nz, nz), hi.reshape(nz, nz)
