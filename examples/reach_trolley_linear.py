@@ -16,7 +16,7 @@ sensor 1's window at an uncertain instant, it brakes, stops, turns and returns. 
    affine (``hybridlab.reachability.constants``);
 3. simulations from the corners of the initial box lie in the flowpipe at 161 instants.
 
-``--t-end 12`` proves the rail over the whole 12 s manoeuvre (about a minute on two
+``--t-end 12`` proves the rail over the whole 12 s manoeuvre (about 35 s on two
 cores; ``docs/verification.md``, Limits, has the numbers). Run
 ``python examples/reach_trolley_linear.py [--t-end T] [--plot FILE.png]``. Exits with
 status 1 if a check fails.
