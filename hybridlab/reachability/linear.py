@@ -400,7 +400,7 @@ class Propagator:
         if basis is None:
             G = np.vstack([W.generators, np.zeros((1, W.generators.shape[1]))])
             first = F @ G
-            box = self.slow.input_tail @ w_rad + _column_sum(product_error(np.abs(F), np.abs(G)))
+            box = self.slow.input_tail @ w_rad + product_error(np.abs(F), w_rad)
             return np.hstack([self.r * W.generators, first[:n]]), up(box)[:n]
         Sinv = basis.inv_mid[:, :n]
         Z = Sinv @ W.generators
@@ -410,7 +410,7 @@ class Propagator:
         first = F @ Z[s]
         box = np.zeros(n + 1)
         box[s] = (self.slow.input_tail @ z_rad[s] + self.r * z_err[s] + np.abs(F) @ z_err[s]
-                  + _column_sum(product_error(np.abs(F), np.abs(Z[s]))))
+                  + product_error(np.abs(F), z_rad[s]))
         for b, blk in zip(basis.blocks[1:], self.fast, strict=True):
             box[b] = blk.gain @ z_rad[b]
         box = up(box + self.input_coupling * float(np.max(z_rad)))
@@ -419,14 +419,9 @@ class Propagator:
         first_gens = S[:, s] @ first
         err = (product_error(np.abs(S), box)
                + product_error(np.abs(S[:, s]), self.r * z_rad[s])
-               + _column_sum(product_error(np.abs(S[:, s]), np.abs(first))))
+               + product_error(np.abs(S[:, s]), up(np.sum(np.abs(first), axis=1))))
         gens = np.hstack([slow_gens[:n], first_gens[:n], (S * box[None, :])[:n]])
         return gens, up(err[:n])
-
-
-def _column_sum(errors: np.ndarray) -> np.ndarray:
-    """Per row, the sum over the columns of a matrix of error bounds, rounded up."""
-    return up(np.sum(errors, axis=1))
 
 
 Homogeneous = tuple[np.ndarray, np.ndarray, np.ndarray]
