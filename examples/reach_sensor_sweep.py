@@ -1,18 +1,19 @@
-"""A sensor event in a flowpipe: the tracking error survives the jump as a sweep.
+"""A sensor event in a flowpipe: the tracking error survives the jump.
 
 In ``models/sensor_follower.toml`` a leader moves at unit speed from ``x`` in [0, 0.5] and a
 follower tracks it (``y' = 1 + 2 (x - y)``, ``y`` in [0, 0.5]); a light barrier at ``x = 1``
 records ``e = x``. The barrier fires over half a second across the initial box, so the step
-sets that hit its guard form a long run. Joined into one box (``clustering="box"``), the
-run forgets that ``y`` moves with ``x``; joined into one zonotope that keeps the flowpipe's
-generators and adds the run's sweep (``clustering="sweep"``, see ``docs/verification.md``),
-it does not. Both checks keep the initial set whole (``split=1``), so only the join differs:
-left to itself, ``check_safety`` bisects the box join's initial set where it fails and proves
-the spec that way too, in more analyses. Checks:
+sets that hit its guard form a long run, in which ``x`` and ``y`` both sweep by 0.5. A box
+of that whole run would forget that ``y`` moves with ``x``. But a guard is urgent: every
+trajectory fires where ``x`` comes up to 1, so each step set is cut down to that surface
+first (``docs/verification.md``, "The hybrid layer"). On the surface ``y - x`` is what the
+flow made it, whether the run is then joined into one box (``clustering="box"``) or into
+one zonotope that keeps the flowpipe's generators and adds the run's sweep
+(``clustering="sweep"``). Both checks keep the initial set whole (``split=1``). Checks:
 
-1. with the box, the spec ``|y - x| <= 0.3`` after the jump is not proved (UNKNOWN);
-2. with the sweep it is proved (SAFE), with ``|y - x|`` bounded by less than 0.25 (the
-   exact bound is ``0.5 e^-1 = 0.18``);
+1. with either join, the spec ``|y - x| <= 0.3`` after the jump is proved (SAFE), with
+   ``|y - x|`` bounded by less than 0.25 (the exact bound is ``0.5 e^-1 = 0.18``);
+2. the recorded position ``e`` is 1 to within ``1e-9`` in the latched mode;
 3. simulations from the initial box's corners lie in the sweep's flowpipe after the jump.
 
 Run ``python examples/reach_sensor_sweep.py [--plot FILE.png]``; the plot shows the bounds of
@@ -46,9 +47,14 @@ def main(argv: list[str] | None = None) -> int:
     for join, v in verdicts.items():
         worst = max(0.3 - b.lower for b in v.spec_bounds)
         print(f"clustering={join!r}: {v.status.name}, |y - x| <= {worst:.3f} after the jump")
-    ok = verdicts["box"].status.name == "UNKNOWN" and verdicts["sweep"].status.name == "SAFE"
-    ok &= max(0.3 - b.lower for b in verdicts["sweep"].spec_bounds) < 0.25
+    ok = all(v.status.name == "SAFE" and max(0.3 - b.lower for b in v.spec_bounds) < 0.25
+             for v in verdicts.values())
     result = verdicts["sweep"].reach
+    if result is None:
+        return 1
+    recorded = np.array([s.bounds()[2] for s in result.sets if s.mode == "latched"])
+    print(f"recorded position e in [{recorded[:, 0].min():.12f}, {recorded[:, 1].max():.12f}]")
+    ok &= bool(np.all(np.abs(recorded - 1.0) <= 1e-9))
     outside = 0
     runs = []
     for x0 in (0.0, 0.5):
@@ -88,7 +94,7 @@ def _plot(verdicts, runs, path: str) -> None:
         ax.plot(t, z[:, 1] - z[:, 0], color="k", lw=1)
     ax.set_xlabel("t [s]")
     ax.set_ylabel("y - x [m] after the barrier")
-    ax.set_title("a light barrier fires over half a second: box against sweep")
+    ax.set_title("a light barrier fires over half a second: box and sweep on its surface")
     ax.legend()
     ax.autoscale()
     fig.savefig(path, dpi=120)

@@ -12,7 +12,7 @@ step response, in steps of 1e-4 s, over the first 30 ms of its stop-and-return (
 friction, breaking away, accelerating), in steps of 1e-3 s, and over 0.55 s of a
 stop-and-return with sensor 1 at 100 mm (through the sensor event at an uncertain instant
 into the braking), in steps of 1.25e-3 s; its linearised plant (``trolley_linear.toml``)
-over 1.6 s, through the stop, the turn and into the return. Each step of the trolley's
+over 2 s, through the stop, the turn and the return into holding. Each step of the trolley's
 nonlinear modes costs a few hundredths of a second, so longer horizons cost minutes; see
 ``docs/verification.md``.
 """
@@ -57,15 +57,17 @@ CASES = {
     "trolley_sensor_event": ("trolley", None, {"phi": (-0.01, 0.01), "omega": (-0.05, 0.05)},
                              {}, 0.55, {"step": 0.00125, "clustering": "sweep",
                                         "fixed": {"p_1": 0.1}}),
-    # the linearised trolley through its turn: braking, stopped with the friction's sign
-    # free while the set lies across v = 0, the return's acceleration and cruise
+    # the linearised trolley through its turn and return into holding: braking, stopped
+    # with the friction's sign free while the set lies across v = 0, the return's
+    # acceleration, its cruise entered at the deceleration guard's equality (the entry set
+    # split), deceleration and arrival; its manoeuvre modes lifted over tau's monomials
     "trolley_linear_turn": ("trolley_linear", None, {"phi": (-0.01, 0.01),
                                                      "omega": (-0.05, 0.05)},
-                            {}, 1.6, {"step": 0.001875, "clustering": "sweep"}),
+                            {}, 2.0, {"step": 0.001875, "clustering": "sweep"}),
 }
 #: samples per trajectory; the trolley's 18-state zonotopes need one LP per membership test
 GRID_POINTS = {"trolley_step_2ms": 301, "trolley_break_away_30ms": 301,
-               "trolley_sensor_event": 221, "trolley_linear_turn": 321}
+               "trolley_sensor_event": 221, "trolley_linear_turn": 401}
 
 
 def _starts(box: dict, params: dict, n_random: int, seed: int):

@@ -13,7 +13,12 @@ window):
   checked, so the part of an entry set outside the invariant is recorded at that instant and
   jumps through every guard that may hold on it.
 * **Guards** (urgent): a transition *may* fire when every guard row can be
-  non-negative over ``H``. Consecutive steps that may fire it form a cluster.
+  non-negative over ``H`` (nonlinear rows by the mean-value form over the zonotope).
+  Consecutive steps that may fire it form a cluster. A trajectory fires at its entry
+  or where the guard's last row to hold comes up to 0, so a step set with one row in
+  doubt is cut down to that row's surface, a step set inside the guard (fired before)
+  is dropped, and an entry set across the guard is split: its inner part jumps at the
+  entry instant and the rest flows on (:func:`_firing_surface`).
   Each step set is cut down to the guard and the source invariant (LPs over the
   zonotope, plus exact clipping by axis-aligned rows), the cluster's pieces are
   joined (``clustering="box"``) into their box in the state axes or in the run's
@@ -156,6 +161,27 @@ def _frames_alike(swept: Zonotope, box: np.ndarray) -> bool:
     bounds = swept.bounds()
     scale = 1e-12 * (1.0 + np.abs(box).max(axis=1))
     return bool(np.all(bounds[:, 1] - bounds[:, 0] <= GROUP_GROWTH * width + scale))
+
+
+_ACROSS = 1e-9
+"""An entry set is split at a guard row whose range over it reaches this far (relative)
+to both sides of 0; nearer, it lies on the surface to within rounding."""
+
+
+def _firing_surface(Z: Zonotope, guard: Rows, row: int) -> Zonotope | None:
+    """``Z`` cut down to the surface ``g_row(z) = 0`` (linearised over ``Z`` by the
+    mean-value form where the row is nonlinear); ``Z`` itself where that does not apply.
+
+    Sound for the states where a trajectory fires, when it entered its flow with some
+    guard row negative: the guard holds first at an instant when every row is ``>= 0``
+    and one of them has just come up from below, so that row is 0 there (the rows are
+    continuous along the flow). A step set on which only ``row`` may be negative holds
+    that instant only on that row's surface, or at the step's start, which the step
+    before covers."""
+    a, lo, hi = guard.affine_bounds(Z)
+    if not (np.all(np.isfinite(a[row])) and np.isfinite(lo[row]) and np.isfinite(hi[row])):
+        return Z
+    return Z.intersect_slab(a[row], -hi[row], -lo[row])
 
 
 def _linear_rows(*rows: Rows) -> tuple[np.ndarray, np.ndarray]:
@@ -373,6 +399,18 @@ class _Analysis:
         clusters: dict[int, list[tuple[Zonotope, float, float]]] = {tr.index: []
                                                                      for tr in guarded}
         P = item.P
+        # which guards no entry state fires at once: there, every firing comes up from below
+        from_below: dict[int, bool] = {}
+        for tr in guarded:
+            rng = system.guards[tr.index].range(P)
+            from_below[tr.index] = bool(np.any(rng[:, 1] < 0))
+        # an entry set across the one guard that may hold on it: its inner part fires at
+        # once (no other transition could take it instead) and the rest flows on
+        may_fire = [tr for tr in guarded if not (from_below[tr.index] or leaving[tr.index])]
+        if len(may_fire) == 1 and not scheduled:
+            split = self._entry_split(item, may_fire[0], P)
+            if split is not None:
+                P, from_below[may_fire[0].index] = split, True
         P_next: Zonotope | None  # None once cut away by the invariant
         H: Zonotope | None
         rel = 0.0
@@ -388,7 +426,7 @@ class _Analysis:
         while True:
             start_lo = item.t_lo + rel if not exact_time else now
             if quiet.due() and not any(clusters.values()):
-                chain = stepper.chain_for(P, self.step)
+                chain = stepper.quiet_chain(P, self.step)
                 if chain is not None:
                     taken, P, rel, now = self._quiet_steps(item, stepper, chain, P, rel, now,
                                                            exact_time, guarded, leaving,
@@ -471,7 +509,7 @@ class _Analysis:
                             P_next is not None and bool(np.all(rows.range(P_next)[:, 0] > 0))):
                         stop = True
                 elif clusters[tr.index]:
-                    self._jump(item, tr, clusters[tr.index])
+                    self._jump(item, tr, clusters[tr.index], from_below[tr.index])
                     clusters[tr.index] = []
             if sides.step(P, H, reaching, P_next, t0, t1):
                 stop = True
@@ -484,7 +522,7 @@ class _Analysis:
                 now = instant
         for tr in guarded:
             if clusters[tr.index]:
-                self._jump(item, tr, clusters[tr.index])
+                self._jump(item, tr, clusters[tr.index], from_below[tr.index])
         sides.flush()
 
     def _in_phase(self, item: Item, stepper: FlowStepper, Z: Zonotope | None
@@ -655,16 +693,8 @@ class _Analysis:
                 guard = self.system.guards[tr.index]
                 if guard.size and np.any(guard.range(piece)[:, 1] < 0):
                     continue
-                cut = self._cut(piece, guard, self.no_rows)
-                if cut is None:
-                    continue
-                try:
-                    post = self._reset(tr.index, cut)
-                except StepError as exc:
-                    self._too_wide_for_reset(exc)
-                    continue
-                self.push(item.id, tr.target, post, item.t_lo, item.t_hi, item.jumps + 1,
-                          phase=self._carried(item, tr))
+                self._fire(item, tr, self._cut(piece, guard, self.no_rows), item.t_lo,
+                           item.t_hi)
 
     def _landing(self, mode: str, guarded, P: Zonotope, r: float, t: float) -> float:
         """The step length ``r``, shortened to land on the instant a guard is crossed
@@ -801,42 +831,85 @@ class _Analysis:
         G = np.hstack([J_mid @ Z.generators, np.diag(rad)])
         return Zonotope(value, G)
 
-    def _jump(self, item: Item, tr, cluster: list[tuple[Zonotope, float, float]]) -> None:
+    def _entry_split(self, item: Item, tr, P: Zonotope) -> Zonotope | None:
+        """An entry set ``P`` across a guard with one row in doubt: its part inside the
+        guard jumps at the entry instant, and the part outside is returned to flow on
+        (urgent semantics: a state inside a guard does not flow). ``None`` (nothing done)
+        unless that row's range over ``P`` is well on both sides of 0."""
+        guard = self.system.guards[tr.index]
+        rng = guard.range(P)
+        doubt = np.flatnonzero(rng[:, 0] < 0)
+        if doubt.size != 1:
+            return None
+        i = int(doubt[0])
+        lo, hi = rng[i]
+        if not (lo < -_ACROSS * (1.0 + abs(lo) + abs(hi)) and hi > _ACROSS * (1.0 + abs(lo)
+                                                                          + abs(hi))):
+            return None  # on the surface to within rounding: the step sets take it
+        a, e_lo, e_hi = guard.affine_bounds(P)
+        if not (np.all(np.isfinite(a[i])) and np.isfinite(e_lo[i]) and np.isfinite(e_hi[i])):
+            return None
+        invariant = self.system.modes[item.mode].invariants
+        inside = P.intersect_halfspace(-a[i], e_hi[i])  # g_i = a z + e >= 0
+        self._fire(item, tr, _within(_within(inside, guard), invariant), item.t_lo, item.t_hi)
+        return P.intersect_halfspace(a[i], -e_lo[i])  # g_i <= 0
+
+    def _jump(self, item: Item, tr, cluster: list[tuple[Zonotope, float, float]],
+              from_below: bool) -> None:
         guard = self.system.guards[tr.index]
         invariant = self.system.modes[item.mode].invariants
-        pieces, sets = [], []
+        # a trajectory fires at its entry, or where the guard's last row to hold comes up
+        # to 0 (_firing_surface): a step set inside the guard holds no firing of its own,
+        # and one with a single unmet row fires on that row's surface; the first step set
+        # also holds the entry instant, unless no entry state fires there (from_below)
+        pieces, sets, raw, rows = [], [], [], []
         for H, t0, t1 in cluster:
-            piece = self._cut(H, guard, invariant)
-            if piece is not None:
+            row = -1
+            if guard.size and (from_below or t0 != item.t_lo):
+                unmet = np.flatnonzero(guard.range(H)[:, 0] < 0)
+                if unmet.size == 0:
+                    continue
+                row = int(unmet[0]) if unmet.size == 1 else -1
+            on = H if row < 0 else _firing_surface(H, guard, row)
+            piece = None if on is None else self._cut(on, guard, invariant)
+            if piece is not None and on is not None:
                 pieces.append((piece.bounds(), t0, t1))
-                sets.append(H)
+                sets.append(on)
+                raw.append(H)
+                rows.append(row)
         A, b = _linear_rows(guard, invariant)
         for group in groups(pieces, self.options.clustering):
             t_lo = min(pieces[k][1] for k in group)
             t_hi = max(pieces[k][2] for k in group)
             box = hull([pieces[k][0] for k in group])
-            swept = (sweep_hull([sets[k] for k in group])
+            swept = (sweep_hull([raw[k] for k in group])
                      if self.options.clustering == "sweep" else None)
-            if swept is not None and not _frames_alike(swept, box):
-                swept = None  # the sets' generators do not correspond: the box path
+            if swept is not None and not _frames_alike(swept, hull([raw[k].bounds()
+                                                                    for k in group])):
+                swept = None  # the sets' generators do not correspond
             if swept is not None:
                 pre = _within(_within(swept, guard), invariant)
-                if pre is None:
-                    continue
+                row = rows[group[0]]
+                if pre is not None and row >= 0 and all(rows[k] == row for k in group):
+                    pre = _firing_surface(pre, guard, row)
             elif self.options.intersection == "lp":
                 pre = oriented_hull([sets[k] for k in group], A, b, box,
                                     [pieces[k][0] for k in group])
-                if pre is None:
-                    continue
             else:
                 pre = Box(box[:, 0], box[:, 1]).to_zonotope()
-            try:
-                post = self._reset(tr.index, pre)
-            except StepError as exc:
-                self._too_wide_for_reset(exc)
-                continue
-            self.push(item.id, tr.target, post, t_lo, min(t_hi, self.t_end), item.jumps + 1,
-                      phase=self._carried(item, tr))
+            self._fire(item, tr, pre, t_lo, t_hi)
+
+    def _fire(self, item: Item, tr, pre: Zonotope | None, t_lo: float, t_hi: float) -> None:
+        """Reset ``pre`` (``None``: nothing fires) and put it on the waiting list."""
+        if pre is None:
+            return
+        try:
+            post = self._reset(tr.index, pre)
+        except StepError as exc:
+            self._too_wide_for_reset(exc)
+            return
+        self.push(item.id, tr.target, post, t_lo, min(t_hi, self.t_end), item.jumps + 1,
+                  phase=self._carried(item, tr))
 
     def _carried(self, item: Item, tr) -> Phase:
         return self.phases.carried(item.phase, tr.target, self.system.resets[tr.index])

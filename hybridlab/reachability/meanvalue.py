@@ -73,10 +73,11 @@ class MeanValue:
                        for d in row]
             self.hessian = IntervalFunction(entries, wsyms)
 
-    def __call__(self, Z: Zonotope, u_lo: np.ndarray, u_hi: np.ndarray
-                 ) -> tuple[np.ndarray, np.ndarray]:
-        """Enclosures ``(lo, hi)`` of every function over ``Z`` and ``[u_lo, u_hi]``."""
-        box = Z.bounds()
+    def __call__(self, Z: Zonotope, u_lo: np.ndarray, u_hi: np.ndarray,
+                 box: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Enclosures ``(lo, hi)`` of every function over ``Z`` and ``[u_lo, u_hi]``
+        (``box``: ``Z``'s interval hull, when the caller has it)."""
+        box = Z.bounds() if box is None else box
         lo_w, hi_w = np.r_[box[:, 0], u_lo], np.r_[box[:, 1], u_hi]
         lo, hi = self.value(lo_w, hi_w)
         j_lo, j_hi = self.gradient(lo_w, hi_w)
@@ -104,6 +105,39 @@ class MeanValue:
         if self.hessian is not None:
             lo, hi = self._second_order(Z, u_lo, u_hi, lo, hi)
         return lo, hi
+
+    def affine_bounds(self, Z: Zonotope, box: np.ndarray | None = None
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(a, lo, hi)`` with ``f_i(z) - a_i . z`` in ``[lo_i, hi_i]`` for every ``z`` in
+        ``Z`` (functions of the states only): ``a`` is the interval Jacobian's midpoint
+        over ``Z``'s hull, and the bounds take the value at the centre and the Jacobian's
+        radius times the hull's reach from the centre (non-finite where the enclosures
+        are).
+
+        Examples
+        --------
+        ``x**2`` over ``[0.9, 1.1]``: ``a = 2`` and ``x**2 - 2 x`` in ``[-1.02, -0.98]``
+        (its true range is ``[-1, -0.99]``):
+
+        >>> x = sp.Symbol("x", real=True)
+        >>> a, lo, hi = MeanValue([x**2], [x], []).affine_bounds(Zonotope([1.0], [[0.1]]))
+        >>> a.round(9).tolist(), round(float(lo[0]), 9), round(float(hi[0]), 9)
+        ([[2.0]], -1.02, -0.98)
+        """
+        box = Z.bounds() if box is None else box
+        c = Z.center
+        v_lo, v_hi = self.value(c, c)
+        j_lo, j_hi = self.gradient(box[:, 0], box[:, 1])
+        j_lo, j_hi = j_lo.reshape(self.shape), j_hi.reshape(self.shape)
+        mid = 0.5 * (j_lo + j_hi)
+        rad = np.nextafter(np.maximum(j_hi - mid, mid - j_lo), np.inf)
+        dev = np.nextafter(np.maximum(box[:, 1] - c, c - box[:, 0]), np.inf)
+        with np.errstate(over="ignore", invalid="ignore"):
+            at_c = mid @ c
+            spread = rad @ dev + _PRODUCT_SLACK * (np.abs(mid) @ np.abs(c)) + 1e-300
+            lo = np.nextafter(v_lo - at_c - spread, -np.inf)
+            hi = np.nextafter(v_hi - at_c + spread, np.inf)
+        return mid, lo, hi
 
     def _second_order(self, Z: Zonotope, u_lo: np.ndarray, u_hi: np.ndarray,
                       lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -34,9 +34,12 @@ surface lies in that convex hull when the flow is affine in the ``sigma``.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from hybridlab.reachability.chain import AffineChain, Ahead
+from hybridlab.reachability.lifting import ClockLift
 from hybridlab.reachability.linear import Propagator, StepError, affine_step
 from hybridlab.reachability.meanvalue import MeanValue
 from hybridlab.reachability.modal import eigenbasis
@@ -61,6 +64,11 @@ class RemainderError(StepError):
     >>> issubclass(RemainderError, StepError)
     True
     """
+
+_SETTLED_CHAIN = 64
+"""Steps after which a chain with a free sign runs on through a short stretch where the
+sign is known (:meth:`FlowStepper._covers`)."""
+
 
 class FlowStepper(SurfaceSteps):
     """Steps of one mode's flow; keeps the propagator cache and the remainder guess.
@@ -97,11 +105,21 @@ class FlowStepper(SurfaceSteps):
         self._affine_A: np.ndarray | None = None
         self._reduction_basis: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._basis_sought = False  # an affine mode's eigenbasis is sought once
-        # an affine mode is stepped by an AffineChain while it has no switching function
-        # or every sign is free over the set (the signs are then an input in [-1, 1]); the
-        # chain continues while it is handed back its own last end set
+        # an affine mode is stepped by an AffineChain while its signs keep the ranges the
+        # chain was built with (each known, or free: an input in [-1, 1]); the chain
+        # continues while it is handed back its own last end set and a known sign holds
+        # over every step's set
         self._chain: AffineChain | None = None
         self._chain_end: Zonotope | None = None
+        self._chain_signs = np.zeros((0, 2))
+        # the chain's last flowpipe set: its generators are Phi^k times the first set's, in
+        # the same order, which a run of them joined at a guard (sweep_hull) relies on
+        self._chain_set: Zonotope | None = None
+        # a mode affine but for its clocks' monomials steps lifted (reachability.lifting);
+        # its chain's sets are projected back on the mode's states
+        self._clock_lift: ClockLift | None = None
+        self._lift_sought = False
+        self._chain_project: Callable[[Zonotope], Zonotope] | None = None
         # with flowpipe="taylor", a nonlinear mode's Taylor model continues while the
         # stepper is handed back the zonotope of its own last end set (see _taylor_step)
         self._taylor: TaylorFlowpipe | None = None
@@ -115,8 +133,8 @@ class FlowStepper(SurfaceSteps):
     def reduce(self, Z: Zonotope, order: float) -> Zonotope:
         """``Z`` reduced to ``order``; for an affine mode, boxed in its eigenvector basis
         (where the flow contracts, so a box mapped and boxed again does not grow)."""
-        if self._chain is not None and Z is self._chain_end:
-            return Z  # a chain's end set: its size is bounded, and reducing it would wrap
+        if self._chain is not None and (Z is self._chain_end or Z is self._chain_set):
+            return Z  # a chain's set: its size is bounded, and reducing it would wrap
         if self._taylor_end is not None and Z is self._taylor_end:
             return Z  # a Taylor model's end set: few generators, and the model goes on
         return Z.reduce(order, self._basis())
@@ -163,6 +181,22 @@ class FlowStepper(SurfaceSteps):
             return chain
         return None
 
+    def quiet_chain(self, P: Zonotope, r: float) -> AffineChain | None:
+        """:meth:`chain_for` where the chain's steps need no check of their own and are
+        over the mode's states: none of its signs is held known (a held sign is checked
+        over each step's set) and it is not lifted."""
+        held = self._chain_signs[:, 0] == self._chain_signs[:, 1]
+        if np.any(held) or self._chain_project is not None:
+            return None
+        return self.chain_for(P, r)
+
+    def _lift(self) -> ClockLift | None:
+        """The mode's lift to an affine flow over its clocks' monomials, if it has one."""
+        if not self._lift_sought:
+            self._lift_sought = True
+            self._clock_lift = ClockLift.of(self.mode)
+        return self._clock_lift
+
     def skip(self, chain: AffineChain, ahead: Ahead, taken: int) -> Zonotope:
         """Take ``taken`` steps of ``chain`` looked ahead (:meth:`AffineChain.ahead`);
         returns the end set, from which :meth:`step` continues the chain."""
@@ -190,16 +224,49 @@ class FlowStepper(SurfaceSteps):
         on_surface = self._surface_step(P, r, sig)
         if on_surface is not None:
             return on_surface
-        if np.all(sig[:, 0] < sig[:, 1]) and chain is not None:
-            P_next, H = self._advance(chain)  # every sign still free: the chain's input holds
-        else:
+        stepped = None
+        ranges = self._chain_signs
+        if chain is not None and self._covers(chain, ranges, sig, P):
+            stepped = self._advance(chain)
+            held = ranges[:, 0] == ranges[:, 1]
+            if np.any(held & (self._sigma_signs(stepped[1]) != ranges[:, 0])):
+                self._chain, stepped = None, None  # a known sign breaks within the step
+            else:
+                sig = ranges
+        if stepped is None:
             P_next, H, sig = self._settled(P, r, sig, self.mode)
+        else:
+            P_next, H = stepped
         return self._attractive_cut(P, P_next, H, sig, sig[:, 0] < sig[:, 1])
+
+    def _covers(self, chain: AffineChain, ranges: np.ndarray, sig: np.ndarray,
+                P: Zonotope) -> bool:
+        """Whether ``chain``, built for the sign ``ranges``, continues over ``P``, whose
+        signs are ``sig``: each range must contain ``sig``'s (a free sign covers a known
+        one, soundly). A sign known over ``P`` but free in the chain keeps the chain only
+        when the chain has run :data:`_SETTLED_CHAIN` steps (its input sum is large, and a
+        new chain would start from that large set) and ``P`` lies within its own width of
+        the surface (it will straddle it again soon; a set that moves away is better
+        served by a chain of the known sign)."""
+        if not bool(np.all((ranges[:, 0] <= sig[:, 0]) & (sig[:, 1] <= ranges[:, 1]))):
+            return False
+        newly = (sig[:, 0] == sig[:, 1]) & (ranges[:, 0] < ranges[:, 1])
+        if not np.any(newly):
+            return True
+        if chain.steps < _SETTLED_CHAIN:
+            return False
+        rng = self.mode.switches.range(P)[newly]
+        return bool(np.all(np.minimum(np.abs(rng[:, 0]), np.abs(rng[:, 1]))
+                           < rng[:, 1] - rng[:, 0]))
 
     def _advance(self, chain: AffineChain) -> tuple[Zonotope, Zonotope]:
         """The next step of the affine chain."""
-        self._chain_end, H = chain.advance()
-        return self._chain_end, H
+        X, H = chain.advance()
+        project = self._chain_project
+        if project is not None:  # a lifted chain: its sets over the mode's states
+            X, H = project(X), project(H)
+        self._chain_end, self._chain_set = X, H
+        return X, H
 
     def _taylor_flowpipe(self) -> TaylorFlowpipe | None:
         """The mode's Taylor-model flowpipe when ``flowpipe="taylor"`` was asked for."""
@@ -261,6 +328,12 @@ class FlowStepper(SurfaceSteps):
     def _step_with(self, P: Zonotope, r: float, sig: np.ndarray, m: ModeSystem
                    ) -> tuple[Zonotope, Zonotope]:
         """A step of the flow ``m`` with the signs ``sigma_k`` in the ranges ``sig[k]``."""
+        own = m is self.mode
+        project = None
+        lift = self._lift() if own else None
+        lifted = None if lift is None else lift.lift(P)
+        if lift is not None and lifted is not None:  # affine over (z, clock monomials)
+            P, m, project = lifted, lift.flow, lift.project
         u_lo = np.r_[self.input_lo, sig[:, 0]]
         u_hi = np.r_[self.input_hi, sig[:, 1]]
         u_mid = 0.5 * (u_lo + u_hi)
@@ -274,7 +347,8 @@ class FlowStepper(SurfaceSteps):
         A, B = J[:, :nz], J[:, nz:]
         c = f_star - A @ z_star
         if not (np.all(np.isfinite(A)) and np.all(np.isfinite(c)) and np.all(np.isfinite(B))):
-            at = dict(zip(self.system.znames, z_star.round(6).tolist(), strict=True))
+            at = dict(zip(self.system.znames, z_star[:len(self.system.znames)].round(6).tolist(),
+                          strict=True))
             raise StepError(f"mode {m.name!r}: the flow or its Jacobian is not finite at {at}")
         prop = self._propagator(A, c, r)
         B_in = B[:, u_rad > 0] * u_rad[u_rad > 0]
@@ -283,13 +357,20 @@ class FlowStepper(SurfaceSteps):
             self._basis_sought = True
         if m.affine:
             W = Zonotope(np.zeros(nz), B_in) if B_in.size else None
-            # a chain needs the same input at every step: every sign free (or none)
-            signs_free = bool(np.all(sig[:, 0] == -1.0) and np.all(sig[:, 1] == 1.0))
-            if not signs_free or self.options.bloat or m is not self.mode:
-                return affine_step(P, prop, W, self.options.bloat)
-            self._chain = AffineChain(prop, P, W, self.options.order, self._basis())
-            self._chain_end = self._chain.first[0]
-            return self._chain.first
+            # a chain needs the same input at every step: each sign known or free (a
+            # surface rule's partial range is the rule's own step)
+            whole = bool(np.all(np.isin(sig, (-1.0, 1.0))))
+            if not whole or self.options.bloat or not own:
+                P_next, H = affine_step(P, prop, W, self.options.bloat)
+                return (P_next, H) if project is None else (project(P_next), project(H))
+            basis = self._basis() if project is None else None
+            self._chain = AffineChain(prop, P, W, self.options.order, basis)
+            self._chain_project = project
+            P_next, H = self._chain.first
+            if project is not None:
+                P_next, H = project(P_next), project(H)
+            self._chain_end, self._chain_signs = P_next, sig.copy()
+            return P_next, H
         remainder = self._remainders.setdefault(m.name, np.zeros(nz))
         guess = remainder.copy()
         for _ in range(self.options.remainder_iterations):

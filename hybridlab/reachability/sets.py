@@ -446,14 +446,15 @@ class Zonotope:
             return Zonotope([0.5 * (lo_x + hi_x)], [[np.nextafter(0.5 * (hi_x - lo_x), np.inf)]])
         lo, hi = -np.ones(d.size), np.ones(d.size)
         room = s + slack + spread  # s minus the others' minimum, before removing |d_i|
-        for i in np.flatnonzero(np.abs(d) > 1e-300):
-            limit = (room - abs(d[i])) / d[i]
-            if d[i] > 0:
-                hi[i] = min(hi[i], limit * (1 + 1e-12) + 1e-300 if limit > 0 else
-                            limit * (1 - 1e-12) + 1e-300)
-            else:
-                lo[i] = max(lo[i], limit * (1 + 1e-12) - 1e-300 if limit < 0 else
-                            limit * (1 - 1e-12) - 1e-300)
+        with np.errstate(over="ignore"):  # room >= 0: a tiny d_i only pushes its limit out
+            for i in np.flatnonzero(np.abs(d) > 1e-300):
+                limit = (room - abs(d[i])) / d[i]
+                if d[i] > 0:
+                    hi[i] = min(hi[i], limit * (1 + 1e-12) + 1e-300 if limit > 0 else
+                                limit * (1 - 1e-12) + 1e-300)
+                else:
+                    lo[i] = max(lo[i], limit * (1 + 1e-12) - 1e-300 if limit < 0 else
+                                limit * (1 - 1e-12) - 1e-300)
         if np.any(lo > hi):
             return None
         mid, rad = 0.5 * (lo + hi), 0.5 * (hi - lo)

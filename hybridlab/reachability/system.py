@@ -32,6 +32,7 @@ import sympy as sp
 from hybridlab.model.checks import TIME
 from hybridlab.model.expressions import as_expression
 from hybridlab.reachability.cubic import ThirdOrder
+from hybridlab.reachability.meanvalue import MeanValue
 from hybridlab.symbolic.compile import CompiledModel
 from hybridlab.symbolic.discontinuities import extract_switches
 from hybridlab.symbolic.functions import _no_impulses
@@ -95,8 +96,11 @@ def _constant_gradient(exprs: Sequence[sp.Expr], syms: Sequence[sp.Symbol]) -> n
 class Rows:
     """Inequalities ``g_i(z) >= 0`` (guards, invariants, switching functions).
 
-    Linear rows are bounded exactly through support functions, the others by
-    interval arithmetic over the set's interval hull.
+    Linear rows are bounded exactly through support functions, the others by the
+    mean-value form over the zonotope (:class:`~hybridlab.reachability.meanvalue.MeanValue`),
+    never wider than interval arithmetic over its interval hull: a guard such as
+    ``x_ref - x_e <= v_p**2/2`` keeps the correlation of ``x_ref`` and ``x_e`` that the
+    hull loses.
 
     Examples
     --------
@@ -131,6 +135,8 @@ class Rows:
         self._a_lin, self._b_lin = self.a[self._lin], self.b[self._lin]
         self._abs_b_lin = np.abs(self._b_lin)
         self._nonlin = np.flatnonzero(~self.linear)
+        self._zsyms = tuple(zsyms)
+        self._mean: MeanValue | None = None  # built at the first nonlinear range
 
     def range(self, Z, box: np.ndarray | None = None) -> np.ndarray:
         """Enclosure ``(size, 2)`` of every row over the zonotope ``Z``."""
@@ -154,7 +160,28 @@ class Rows:
             lo, hi = self._interval(box[:, 0], box[:, 1])
             out[nonlin, 0] = lo[nonlin]
             out[nonlin, 1] = hi[nonlin]
+            if Z.generators.shape[1] and np.any((lo[nonlin] < 0) & (hi[nonlin] > 0)):
+                # a row in doubt over the hull: the mean-value form keeps the set's
+                # correlations (it is intersected with the hull's enclosure)
+                if self._mean is None:
+                    self._mean = MeanValue([self.exprs[i] for i in nonlin], self._zsyms, ())
+                none = np.zeros(0)
+                out[nonlin, 0], out[nonlin, 1] = self._mean(Z, none, none, box)
         return out
+
+    def affine_bounds(self, Z, box: np.ndarray | None = None
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(a, lo, hi)`` with ``g_i(z) - a_i . z`` in ``[lo_i, hi_i]`` for every row and
+        every ``z`` in ``Z``: exact for linear rows (``lo = hi = b``), the mean-value form
+        over ``Z``'s hull for the others (non-finite where it does not apply)."""
+        a, lo, hi = self.a.copy(), self.b.copy(), self.b.copy()
+        nonlin = self._nonlin
+        if nonlin.size:
+            if self._mean is None:
+                self._mean = MeanValue([self.exprs[i] for i in nonlin], self._zsyms, ())
+            a[nonlin], lo[nonlin], hi[nonlin] = self._mean.affine_bounds(
+                Z, Z.bounds() if box is None else box)
+        return a, lo, hi
 
 
 @dataclass(frozen=True, eq=False)
