@@ -6,6 +6,7 @@ import concurrent.futures as cf
 import json
 import math
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -303,3 +304,16 @@ mode = "run"
         result = hybridlab.reach(model, initial={"x": (-1.0, 1.0)}, t_end=0.5, step=0.05)
     assert not result.complete and result.too_wide
     assert "reset of transition 'sample' is unbounded" in result.incomplete_reasons[0]
+
+
+def test_the_kept_sets_memory_is_a_budget():
+    # 2 states and a handful of generators: some hundred bytes a set; 4 KB is a few dozen
+    kw = dict(initial={"h": (9.0, 10.0)}, t_end=3.0, step=0.01)
+    ball = Path(__file__).resolve().parents[1] / "models" / "bouncing_ball.toml"
+    whole = reach(ball, **kw)
+    cut = reach(ball, max_memory=4096 / 2**30, **kw)
+    assert whole.complete and not cut.complete
+    assert 0 < len(cut.sets) < len(whole.sets)
+    assert any("max_memory" in reason for reason in cut.incomplete_reasons)
+    with pytest.raises(ValueError, match="max_memory"):
+        reach(ball, max_memory=0.0, **kw)

@@ -255,6 +255,7 @@ class _Analysis:
         self.phases = Phases(system)
         self.phase_items = 0  # items entered in a phase by a split or a phase change
         self.records: list[tuple[int, ReachSet]] = []
+        self.kept_bytes = 0  # the kept sets' centres and generators (max_memory)
         self.reasons: list[str] = []
         self.too_wide: set[str] = set()  # the reasons that are a set outgrowing a linearisation
         self.items: dict[int, Item] = {}
@@ -349,6 +350,11 @@ class _Analysis:
         if len(self.records) > self.options.max_sets:
             raise _Budget(f"max_sets={self.options.max_sets} flowpipe sets computed; the "
                           f"analysis stopped early (raise max_sets or the step)")
+        self.kept_bytes += full.center.nbytes + full.generators.nbytes
+        if self.kept_bytes > self.options.max_memory * 2**30:
+            raise _Budget(f"max_memory={self.options.max_memory:g} GiB of flowpipe sets kept "
+                          f"({len(self.records)} sets); the analysis stopped early (raise "
+                          f"max_memory, or lower order or the number of branches)")
         if len(self.records) % 16 == 0:
             self._watch(item.mode, t1)
 

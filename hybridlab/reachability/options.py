@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
@@ -61,6 +62,11 @@ class ReachOptions:
     max_sets : int
         Budget of flowpipe sets over all branches; exceeding it ends the
         analysis as incomplete.
+    max_memory : float
+        Budget, in GiB, of the memory the kept flowpipe sets take (their centres
+        and generators) over all branches; exceeding it ends the analysis as
+        incomplete, with the reason (4 by default: an 18-state set of 437
+        generators takes 63 KB).
     remainder_iterations : int
         Attempts to find a linearisation remainder that encloses itself
         (nonlinear modes).
@@ -139,6 +145,7 @@ class ReachOptions:
     clustering: str = "box"
     intersection: str = "lp"
     max_sets: int = 200_000
+    max_memory: float = 4.0
     remainder_iterations: int = 8
     fixpoint: bool = True
     bloat: float = 0.0
@@ -170,6 +177,9 @@ class ReachOptions:
             raise ValueError(f"intersection must be 'lp' or 'box' (got {self.intersection!r})")
         if not (isinstance(self.max_sets, int) and self.max_sets >= 1):
             raise ValueError(f"max_sets must be a positive integer (got {self.max_sets!r})")
+        if not (isinstance(self.max_memory, (int, float)) and 0 < self.max_memory < math.inf):
+            raise ValueError(f"max_memory must be a positive number of GiB "
+                             f"(got {self.max_memory!r})")
         if not (isinstance(self.remainder_iterations, int) and self.remainder_iterations >= 1):
             raise ValueError("remainder_iterations must be a positive integer "
                              f"(got {self.remainder_iterations!r})")
