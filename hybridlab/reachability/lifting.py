@@ -122,7 +122,9 @@ class ClockLift:
         flows = [renamed(s) for s in terms]
         for mono in monomials:
             split = _terms(_rate(mono, clocks), zs + us, slow)
-            flows.append(renamed(split or []))
+            if split is None:  # the closure above split every rate: never reached
+                return None
+            flows.append(renamed(split))
         lifted_z = zs + extra
         flow = ModeSystem(mode.name, tuple(flows), lifted_z, us,
                           Rows([], lifted_z), mode.sigma_index, Rows([], lifted_z))

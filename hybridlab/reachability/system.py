@@ -163,10 +163,8 @@ class Rows:
             if Z.generators.shape[1] and np.any((lo[nonlin] < 0) & (hi[nonlin] > 0)):
                 # a row in doubt over the hull: the mean-value form keeps the set's
                 # correlations (it is intersected with the hull's enclosure)
-                if self._mean is None:
-                    self._mean = MeanValue([self.exprs[i] for i in nonlin], self._zsyms, ())
                 none = np.zeros(0)
-                out[nonlin, 0], out[nonlin, 1] = self._mean(Z, none, none, box)
+                out[nonlin, 0], out[nonlin, 1] = self._mean_value()(Z, none, none, box)
         return out
 
     def affine_bounds(self, Z, box: np.ndarray | None = None
@@ -177,11 +175,15 @@ class Rows:
         a, lo, hi = self.a.copy(), self.b.copy(), self.b.copy()
         nonlin = self._nonlin
         if nonlin.size:
-            if self._mean is None:
-                self._mean = MeanValue([self.exprs[i] for i in nonlin], self._zsyms, ())
-            a[nonlin], lo[nonlin], hi[nonlin] = self._mean.affine_bounds(
+            a[nonlin], lo[nonlin], hi[nonlin] = self._mean_value().affine_bounds(
                 Z, Z.bounds() if box is None else box)
         return a, lo, hi
+
+    def _mean_value(self) -> MeanValue:
+        """The mean-value form of the nonlinear rows (built at its first use)."""
+        if self._mean is None:
+            self._mean = MeanValue([self.exprs[i] for i in self._nonlin], self._zsyms, ())
+        return self._mean
 
 
 @dataclass(frozen=True, eq=False)
