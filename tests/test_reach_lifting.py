@@ -73,7 +73,7 @@ def test_a_lifted_mode_keeps_its_set_tight_and_sound():
     # x0 in [-0.05, 0.05] is [1.8, 2.2] to within 5e-6
     model = hybridlab.loads_model(TRACKER)
     r = reach(model, initial={"x": (-0.05, 0.05)}, params={"a": (0.9, 1.1)}, t_end=2.0,
-              step=0.01)
+              step=0.01, lift_clocks=True)
     assert r.complete and not r.incomplete_reasons
     last = r.sets[-1]
     lo, hi = last.bounds()[0]

@@ -63,7 +63,8 @@ CASES = {
     # split), deceleration and arrival; its manoeuvre modes lifted over tau's monomials
     "trolley_linear_turn": ("trolley_linear", None, {"phi": (-0.01, 0.01),
                                                      "omega": (-0.05, 0.05)},
-                            {}, 2.0, {"step": 0.001875, "clustering": "sweep"}),
+                            {}, 2.0, {"step": 0.001875, "clustering": "sweep",
+                                     "lift_clocks": True}),
 }
 #: samples per trajectory; the trolley's 18-state zonotopes need one LP per membership test
 GRID_POINTS = {"trolley_step_2ms": 301, "trolley_break_away_30ms": 301,

@@ -151,7 +151,7 @@ def _run(args: argparse.Namespace) -> int:
     model = load_model(args.model)
     overrides = {} if args.max_jumps is None else {"max_jumps": args.max_jumps}
     for name in ("split", "step", "order", "clustering", "intersection", "max_sets",
-                 "max_memory", "time_budget"):
+                 "max_memory", "lift_clocks", "time_budget"):
         if getattr(args, name) is not None:
             overrides[name] = getattr(args, name)
     if args.observe:
@@ -251,7 +251,10 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--max-sets", type=_positive, dest="max_sets", metavar="N",
                    help="budget of flowpipe sets (default 200000)")
     p.add_argument("--max-memory", type=float, dest="max_memory", metavar="GIB",
-                   help="budget of the kept flowpipe sets' memory in GiB (default 4)")
+                   help="budget of the kept flowpipe sets' memory in GiB (default 2)")
+    p.add_argument("--lift-clocks", action="store_true", default=None, dest="lift_clocks",
+                   help="step modes polynomial in their clocks as affine chains over the "
+                        "clocks' monomials (timed references)")
     p.add_argument("--observe", action="append", default=[], metavar="NAME",
                    help="a discrete variable to follow exactly although nothing reads it "
                         "(the specs' variables always are); repeatable")

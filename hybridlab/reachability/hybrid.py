@@ -350,7 +350,8 @@ class _Analysis:
         if len(self.records) > self.options.max_sets:
             raise _Budget(f"max_sets={self.options.max_sets} flowpipe sets computed; the "
                           f"analysis stopped early (raise max_sets or the step)")
-        self.kept_bytes += full.center.nbytes + full.generators.nbytes
+        self.kept_bytes += sum(Z.center.nbytes + Z.generators.nbytes
+                               for Z in ({id(rs.set): rs.set, id(full): full}.values()))
         if self.kept_bytes > self.options.max_memory * 2**30:
             raise _Budget(f"max_memory={self.options.max_memory:g} GiB of flowpipe sets kept "
                           f"({len(self.records)} sets); the analysis stopped early (raise "

@@ -194,7 +194,7 @@ class FlowStepper(SurfaceSteps):
         """The mode's lift to an affine flow over its clocks' monomials, if it has one."""
         if not self._lift_sought:
             self._lift_sought = True
-            self._clock_lift = ClockLift.of(self.mode)
+            self._clock_lift = ClockLift.of(self.mode) if self.options.lift_clocks else None
         return self._clock_lift
 
     def skip(self, chain: AffineChain, ahead: Ahead, taken: int) -> Zonotope:

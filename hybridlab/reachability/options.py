@@ -65,7 +65,7 @@ class ReachOptions:
     max_memory : float
         Budget, in GiB, of the memory the kept flowpipe sets take (their centres
         and generators) over all branches; exceeding it ends the analysis as
-        incomplete, with the reason (4 by default: an 18-state set of 437
+        incomplete, with the reason (2 by default: an 18-state set of 437
         generators takes 63 KB).
     remainder_iterations : int
         Attempts to find a linearisation remainder that encloses itself
@@ -130,6 +130,13 @@ class ReachOptions:
         phases of the analysis (:mod:`hybridlab.reachability.phases`); each split
         and each change of phase counts as a jump. ``False``: the sign stays an
         input, free in ``[-1, 1]`` where the set meets the surface.
+    lift_clocks : bool
+        Step a mode whose flow is affine but for a polynomial in its clocks and
+        constants (a timed reference) as an affine chain over those monomials
+        (:mod:`hybridlab.reachability.lifting`) instead of linearising it step by
+        step. Off by default: its tighter sets can make a set at a friction surface
+        split into stick and slip phases again and again (``sign_phases``), which
+        costs far more steps.
 
     Examples
     --------
@@ -145,7 +152,7 @@ class ReachOptions:
     clustering: str = "box"
     intersection: str = "lp"
     max_sets: int = 200_000
-    max_memory: float = 4.0
+    max_memory: float = 2.0
     remainder_iterations: int = 8
     fixpoint: bool = True
     bloat: float = 0.0
@@ -158,6 +165,7 @@ class ReachOptions:
     deadline: float | None = None
     observed: tuple[str, ...] = ()
     sign_phases: bool = True
+    lift_clocks: bool = False
 
     def __post_init__(self) -> None:
         if self.step is not None and not (float(self.step) > 0 and float(self.step) < 1e300):
