@@ -473,9 +473,10 @@ class _Run:
                 if at <= 0 < before:
                     triggers.append(Trigger(r, earliest, False))
                     continue
-            trig, new_armed[r] = first_trigger(r, tau, phi[r], dphi[r], bool(armed[r]), value,
-                                               xtol, tol, floors[r],
-                                               tuple(e[r] for e in extremes))
+            trig, new_armed[r] = first_trigger(
+                r, tau, phi[r], dphi[r], bool(armed[r]), value, xtol, tol, floors[r],
+                tuple(e[r] for e in extremes),
+                (earliest, cluster_width) if math.isfinite(earliest) else None)
             if trig is not None:
                 triggers.append(trig)
                 earliest = min(earliest, trig.t)

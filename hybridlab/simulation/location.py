@@ -17,18 +17,23 @@ first instant at which the monitor has reached zero.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
 from hybridlab.simulation.rules import CHECK_AT, LOCATE_ITERATIONS, LOCATE_STEP, MINIMUM_WIDTH
 
-__all__ = ["Trigger", "sample_step", "first_trigger", "locate_crossing", "hermite_extremes"]
+__all__ = ["Trigger", "sample_step", "first_trigger", "locate_crossing", "hermite_extremes",
+           "hermite_minimum_until"]
 
 BatchFn = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 ValueFn = Callable[[float], float]
+#: the samples' cubic is formed for all intervals at once or for one
+_Values = TypeVar("_Values", float, np.ndarray)
 
 
 @dataclass(frozen=True)
@@ -52,8 +57,8 @@ class Trigger:
     grazing: bool
 
 
-def _coefficients(h: np.ndarray, fa: np.ndarray, fb: np.ndarray, da: np.ndarray,
-                  db: np.ndarray) -> tuple[np.ndarray, ...]:
+def _coefficients(h: _Values, fa: _Values, fb: _Values, da: _Values,
+                  db: _Values) -> tuple[_Values, _Values, _Values, _Values]:
     """Cubic ``c0 + c1 s + c2 s^2 + c3 s^3`` on s in [0, 1] matching values and slopes."""
     c1 = h * da
     c2 = 3.0 * (fb - fa) - h * (2.0 * da + db)
@@ -97,6 +102,37 @@ def hermite_extremes(h: np.ndarray, fa: np.ndarray, fb: np.ndarray, da: np.ndarr
 
     return pick(values, i_min), pick(s, i_min), pick(values, i_max), pick(s, i_max)
 
+
+
+def hermite_minimum_until(h: float, fa: float, fb: float, da: float, db: float,
+                          s_end: float) -> float:
+    """Minimum of the cubic of :func:`hermite_extremes` on ``[0, s_end]`` (``s_end <= 1``).
+
+    The candidates are the ends and the cubic's critical points inside; the
+    arithmetic is that of :func:`hermite_extremes`, term by term.
+
+    Examples
+    --------
+    The cubic through ``1`` (slope ``-4``) and ``1`` (slope ``4``) dips to ``0`` at the
+    middle, but not before a quarter of the interval:
+
+    >>> hermite_minimum_until(1.0, 1.0, 1.0, -4.0, 4.0, 1.0)
+    0.0
+    >>> hermite_minimum_until(1.0, 1.0, 1.0, -4.0, 4.0, 0.25)
+    0.25
+    """
+    _, c1, c2, c3 = _coefficients(h, fa, fb, da, db)
+    a, b, c = 3.0 * c3, 2.0 * c2, c1
+    disc = b * b - 4.0 * a * c
+    sq = math.sqrt(disc) if disc >= 0 else math.nan
+    q = -0.5 * (b + (1.0 if b >= 0 else -1.0) * sq)
+    r1 = q / a if a != 0 else math.nan
+    r2 = c / q if q != 0 else (-c / b if b != 0 else math.nan)
+    best = fa
+    for s in (s_end, r1, r2):
+        if math.isfinite(s) and 0 < s <= s_end:
+            best = min(best, fa + s * (c1 + s * (c2 + s * c3)))
+    return best
 
 
 def sample_step(t0: float, t1: float, batch: BatchFn, samples: int, max_refine: int,
@@ -263,13 +299,20 @@ def _search(candidates: np.ndarray, tau: np.ndarray, fa: np.ndarray, fb: np.ndar
 
 def first_trigger(index: int, tau: np.ndarray, phi: np.ndarray, dphi: np.ndarray, armed: bool,
                   fn: ValueFn, xtol: float, tol: float, floor: float | None = None,
-                  extremes: tuple[np.ndarray, ...] | None = None) -> tuple[Trigger | None, bool]:
+                  extremes: tuple[np.ndarray, ...] | None = None,
+                  located: tuple[float, float] | None = None) -> tuple[Trigger | None, bool]:
     """The first time monitor ``index`` reaches zero from above within the samples.
 
     A monitor that is not ``armed`` (it started on or below zero, e.g. a guard
     right after its own reset) must first rise above ``tol``; if ``floor`` is
-    given it also fires when it sinks below ``floor`` without ever rising (a
-    safety net: a state that started on a boundary and went through it).
+    given it also fires when it sinks below ``floor`` before it rises (a
+    safety net: a state that started on a boundary and went through it). Only
+    the part of an interval before the instant it rises counts for the floor.
+
+    ``located = (t, width)``: an event another monitor of the step reaches at
+    ``t``. A monitor that has risen before ``t - width`` and is above zero there
+    but not at ``t`` coincides with it and fires at ``t`` without a search of
+    its own (as the scan does for armed monitors).
 
     Returns
     -------
@@ -316,16 +359,26 @@ def first_trigger(index: int, tau: np.ndarray, phi: np.ndarray, dphi: np.ndarray
             rearmed = True
             break
         if floor is not None:  # before it re-arms, sinking below the floor fires it
-            upto = start + 1 if rearmed and start < h.size and t_from > tau[start] else start
-            sinking = np.nonzero(lower[:upto] <= floor)[0]
-            trig = _search(sinking, tau, fa, fb, lo_val, lo_s, fn, float(tau[0]), floor, index,
-                           xtol, 0.0)
+            sinking = [int(i) for i in np.nonzero(lower[:start] <= floor)[0]]
+            # re-armed inside interval `start`: only its part before that instant counts
+            if (rearmed and start < h.size and t_from > tau[start]
+                    and hermite_minimum_until(float(h[start]), float(fa[start]), float(fb[start]),
+                                              float(da[start]), float(db[start]),
+                                              (t_from - float(tau[start])) / float(h[start]))
+                    <= floor):
+                sinking.append(start)
+            trig = _search(np.array(sinking, dtype=int), tau, fa, fb, lo_val, lo_s, fn,
+                           float(tau[0]), floor, index, xtol, 0.0)
             if trig is not None and (not rearmed or trig.t <= t_from):
                 return trig, False
         if not rearmed:
             return None, False
         if start >= h.size:
             return None, bool(phi[-1] > tol)
+        if located is not None:
+            t_event, width = located
+            if t_from <= t_event - width and fn(t_event) <= 0 < fn(t_event - width):
+                return Trigger(index, t_event, False), True
     candidates = np.nonzero(lower[start:] <= tol)[0] + start
     return _search(candidates, tau, fa, fb, lo_val, lo_s, fn, t_from, 0.0, index, xtol,
                    tol), True

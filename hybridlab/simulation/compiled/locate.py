@@ -346,10 +346,11 @@ def sample_step(model, md, p, sig, ws, step, t0, t1, samples, max_refine, tol):
         refinements
 
 
-@numba.njit(cache=True)
-def _extremes(h, fa, fb, da, db):
-    """Minimum and maximum of the cubic Hermite interpolant on [0, 1] (location.py)."""
-    c0 = fa
+@numba.njit(cache=True, inline="always")
+def _cubic(h, fa, fb, da, db):
+    """The cubic ``fa + c1 s + c2 s^2 + c3 s^3`` through the ends' values and slopes on
+    ``s`` in [0, 1], and the roots ``r1, r2`` of its derivative (``nan`` where there is
+    none), by the cancellation-free form of the quadratic formula (location.py)."""
     c1 = h * da
     c2 = 3.0 * (fb - fa) - h * (2.0 * da + db)
     c3 = 2.0 * (fa - fb) + h * (da + db)
@@ -364,6 +365,14 @@ def _extremes(h, fa, fb, da, db):
         r2 = -c / b
     else:
         r2 = np.nan
+    return c1, c2, c3, r1, r2
+
+
+@numba.njit(cache=True)
+def _extremes(h, fa, fb, da, db):
+    """Minimum and maximum of the cubic Hermite interpolant on [0, 1] (location.py)."""
+    c0 = fa
+    c1, c2, c3, r1, r2 = _cubic(h, fa, fb, da, db)
     # candidates s = 0, 1, r1, r2 (scalars: this runs for every monitor and interval)
     v_min = v_max = c0
     s_min = s_max = 0.0
@@ -380,6 +389,18 @@ def _extremes(h, fa, fb, da, db):
         if v > v_max:
             v_max, s_max = v, si
     return v_min, s_min, v_max, s_max
+
+
+@numba.njit(cache=True)
+def _minimum_until(h, fa, fb, da, db, s_end):
+    """``hermite_minimum_until`` of location.py: the cubic's minimum on ``[0, s_end]``."""
+    c1, c2, c3, r1, r2 = _cubic(h, fa, fb, da, db)
+    best = fa
+    for i in range(3):
+        si = s_end if i == 0 else (r1 if i == 1 else r2)
+        if np.isfinite(si) and 0 < si <= s_end:
+            best = min(best, fa + si * (c1 + si * (c2 + si * c3)))
+    return best
 
 
 @numba.njit(cache=True, inline="always")
@@ -577,8 +598,9 @@ def _search(model, md, p, sig, ws, step, r, cand, tau, phi, lo_val, lo_s, t_from
 
 @numba.njit(cache=True)
 def _first_trigger(model, md, p, sig, ws, step, r, tau, phi, dphi, armed, xtol, tol,
-                   has_floor, floor):
-    """``first_trigger`` of location.py: ``(found, t, grazing, armed_after)``."""
+                   has_floor, floor, t_event, width):
+    """``first_trigger`` of location.py: ``(found, t, grazing, armed_after)``; ``t_event`` is
+    the event located so far in the step (``inf``: none), ``width`` the cluster width."""
     pr = probe(md, p, sig, ws, step, r)
     K = tau.size - 1
     lo_val = np.empty(K)
@@ -623,11 +645,17 @@ def _first_trigger(model, md, p, sig, ws, step, r, tau, phi, dphi, armed, xtol, 
             rearmed = True
             break
         if has_floor:  # before it re-arms, sinking below the floor fires it
-            upto = start + 1 if rearmed and start < K and t_from > tau[start] else start
             n = 0
-            cand = np.empty(upto, dtype=np.int64)
-            for k in range(upto):
+            cand = np.empty(start + 1, dtype=np.int64)
+            for k in range(start):
                 if lower[k] <= floor:
+                    cand[n] = k
+                    n += 1
+            if rearmed and start < K and t_from > tau[start]:
+                k = start  # re-armed inside this interval: only the part before counts
+                h = tau[k + 1] - tau[k]
+                if _minimum_until(h, phi[k], phi[k + 1], dphi[k], dphi[k + 1],
+                                  (t_from - tau[k]) / h) <= floor:
                     cand[n] = k
                     n += 1
             found, t_hit, graz = _search(model, md, p, sig, ws, step, r, cand[:n], tau, phi,
@@ -638,6 +666,9 @@ def _first_trigger(model, md, p, sig, ws, step, r, tau, phi, dphi, armed, xtol, 
             return False, 0.0, False, False
         if start >= K:
             return False, 0.0, False, phi[K] > tol
+        if (np.isfinite(t_event) and t_from <= t_event - width
+                and probe_value(model, pr, t_event) <= 0 < probe_value(model, pr, t_event - width)):
+            return True, t_event, False, True
     n = 0
     cand = np.empty(K, dtype=np.int64)
     for k in range(start, K):
@@ -722,7 +753,7 @@ def scan(model, md, p, sig, ws, step, armed, has_floor, floors, t0, t1, samples,
                 continue
         found, t_hit, g, arm = _first_trigger(model, md, p, sig, ws, step, r, tau, phi[r],
                                               dphi[r], armed[r], xtol, tol, has_floor[r],
-                                              floors[r])
+                                              floors[r], earliest, width)
         new_armed[r] = arm
         if found:
             rows[n], times[n], graz[n] = r, t_hit, g
