@@ -305,3 +305,25 @@ def test_a_compile_is_announced_on_a_terminal_only(monkeypatch: pytest.MonkeyPat
     monkeypatch.setattr(sys, "stderr", piped)
     hybridlab.simulate(fresh("b"), 0.1, backend="compiled")
     assert piped.getvalue() == ""
+
+
+def test_the_kernel_lets_other_threads_run(compiled_models):
+    # a compiled run in a thread releases the GIL while the kernel works: this thread's
+    # Python loop goes on meanwhile (with the GIL held it would stand still until the end)
+    import threading
+
+    ball = compiled_models["bouncing_ball"]
+    long_run = {"t_end": 20.0, "max_step": 2e-5, "backend": "compiled"}
+    expected = hybridlab.simulate(ball, **long_run)
+    results = []
+    worker = threading.Thread(target=lambda: results.append(hybridlab.simulate(ball, **long_run)))
+    spins = 0
+    worker.start()
+    while worker.is_alive():
+        spins += 1
+    worker.join()
+    assert results[0].stats["steps"] == expected.stats["steps"] > 500_000
+    assert list(results[0].events.t) == list(expected.events.t)
+    # held, the GIL would let this loop run only while the other thread prepares its run
+    # (some 20,000 turns, one switch interval of 5 ms); free, for the second of the run
+    assert spins > 100_000

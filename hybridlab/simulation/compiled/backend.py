@@ -24,6 +24,7 @@ import os
 import stat
 import sys
 import tempfile
+import threading
 import time
 import warnings
 import weakref
@@ -558,12 +559,15 @@ def run(compiled: CompiledModel, *, t0: float, x0: np.ndarray, mode: str, t_end:
     sched_done = np.full(max(n_tr, 1), -1, dtype=np.int64)
     m0 = prep.mode_names.index(mode)
     deadline = engine.deadline_of(o)
-    interrupt_address, clock_address = _watched()
+    interrupt_address, clock_address, gil_ensure, gil_release = _watched()
     if deadline is not None and not clock_address:
         return _fallback(compiled, "time_limit needs clock_gettime, which this C library lacks",
                          **kw)
+    if threading.current_thread() is not threading.main_thread():
+        interrupt_address = 0  # only the main thread receives Ctrl-C
     watch = np.array([o.max_steps, interrupt_address, clock_address,
-                      getattr(time, "CLOCK_MONOTONIC", 1), deadline or 0], dtype=np.int64)
+                      getattr(time, "CLOCK_MONOTONIC", 1), deadline or 0, gil_ensure,
+                      gil_release], dtype=np.int64)
     # the generated functions by address (prep.module keeps them alive)
     args = (prep.module.model.address, prep.module.box.address, tables, reals, opts_i, opts_f,
             float(t0), np.ascontiguousarray(x0, dtype=float), m0, float(t_end),
@@ -581,7 +585,7 @@ def run(compiled: CompiledModel, *, t0: float, x0: np.ndarray, mode: str, t_end:
 
 
 @cache
-def _watched() -> tuple[int, int]:
+def _watched() -> tuple[int, int, int, int]:
     """The addresses the kernel polls for Ctrl-C and the time (fixed for the process)."""
     return watch_addresses()
 

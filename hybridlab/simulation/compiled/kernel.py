@@ -56,7 +56,14 @@ from hybridlab.simulation.compiled.opcodes import (
     OP_GUARD_LIE,
     OP_RESET,
 )
-from hybridlab.simulation.compiled.signatures import clock_at, interrupt_at, model_at, ptr
+from hybridlab.simulation.compiled.signatures import (
+    clock_at,
+    gil_ensure_at,
+    gil_release_at,
+    interrupt_at,
+    model_at,
+    ptr,
+)
 from hybridlab.simulation.compiled.sliding import (
     OK,
     active_indices,
@@ -84,6 +91,9 @@ COMPLETED, ZENO, MAX_EVENTS, HANDOFF = 0, 1, 2, 3
 STEP_LIMIT, TIME_LIMIT, INTERRUPTED = 4, 5, 6
 #: steps between two looks at the clock and for Ctrl-C (each look costs tens of ns)
 _WATCH_EVERY = 16
+#: the least time between two looks for Ctrl-C: each takes the GIL for a moment, which
+#: waits while another thread runs Python (CPython hands the GIL over within 5 ms)
+_LOOK_EVERY_NS = 50_000_000
 #: where a hand-off resumes: from the start, at an event iteration without fresh guards,
 #: at the handling of a flow segment's triggers, at the start of a flow segment
 R_START, R_ITERATE, R_HANDLE, R_FLOW = 0, 1, 2, 3
@@ -169,16 +179,22 @@ def _log(EV, nev, t, j, ref, source, target, kind, grazing, pre, post):
     return EV
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, m, t_end, p,
                n_sig, ztimes, zcount, sched_done, watch):
     """Run from ``(t, x, m)`` to ``t_end``; see the module docstring for the records.
 
-    ``watch``: the step budget, the addresses of ``PyOS_InterruptOccurred`` and
-    ``clock_gettime``, the clock's id and the wall-clock deadline in its
-    nanoseconds (0: none). Every :data:`_WATCH_EVERY` steps the kernel looks for
-    Ctrl-C and at the clock, and stops with :data:`INTERRUPTED` or
-    :data:`TIME_LIMIT`; after ``watch[0]`` steps it stops with :data:`STEP_LIMIT`.
+    The kernel releases the GIL: runs in several threads go on in parallel.
+
+    ``watch``: the step budget, the addresses of ``PyOS_InterruptOccurred`` (0:
+    Ctrl-C is not looked for, as in a thread other than the main one, which never
+    receives it) and ``clock_gettime``, the clock's id, the wall-clock deadline in
+    its nanoseconds (0: none), and the addresses of ``PyGILState_Ensure`` and
+    ``PyGILState_Release``, between which it looks for Ctrl-C. Every
+    :data:`_WATCH_EVERY` steps the kernel looks at the clock, and for Ctrl-C when
+    :data:`_LOOK_EVERY_NS` have passed since it last did (every time, without a
+    clock), and stops with :data:`INTERRUPTED` or :data:`TIME_LIMIT`; after
+    ``watch[0]`` steps it stops with :data:`STEP_LIMIT`.
 
     ``model_address`` and ``box_address`` are the addresses of the generated
     model's point and box functions (:mod:`.codegen`; ``cfunc.address``).
@@ -190,6 +206,9 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
     model, box = model_at(model_address), model_at(box_address)
     max_steps, interrupted, clock = watch[0], interrupt_at(watch[1]), clock_at(watch[2])
     clock_id, deadline = np.int32(watch[3]), watch[4]
+    gil_ensure, gil_release = gil_ensure_at(watch[5]), gil_release_at(watch[6])
+    timed = watch[2] != 0  # the clock is read only where the C library has one
+    next_look = 0
     now = np.zeros(2, dtype=np.int64)
     cgs = tables.cond_group
     inv_off, n_inv, n_sw = tables.invariant_offset, tables.n_invariants, tables.n_switches
@@ -633,12 +652,20 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
                 if stats[0] >= max_steps:
                     code = STEP_LIMIT
                 elif stats[0] % _WATCH_EVERY == 0:
-                    if interrupted() != 0:
-                        code = INTERRUPTED
-                    elif deadline > 0:
+                    ns = 0
+                    if timed:
                         clock(clock_id, ptr(now))
-                        if now[0] * 1_000_000_000 + now[1] >= deadline:
-                            code = TIME_LIMIT
+                        ns = now[0] * 1_000_000_000 + now[1]
+                    hit = 0
+                    if watch[1] != 0 and (not timed or ns >= next_look):
+                        next_look = ns + _LOOK_EVERY_NS
+                        held = gil_ensure()  # CPython's flag is read under the GIL
+                        hit = interrupted()
+                        gil_release(held)
+                    if hit != 0:
+                        code = INTERRUPTED
+                    elif deadline > 0 and ns >= deadline:
+                        code = TIME_LIMIT
                 if t_new >= t_stop or code != COMPLETED:
                     break
             SG[nsg, 3] = npt - SG[nsg, 2]

@@ -13,7 +13,7 @@ from numba.core.cpu import CPUTargetOptions
 from numba.extending import intrinsic
 
 __all__ = ["MODEL_SIGNATURE", "MODEL_TYPE", "ptr", "ptr_at", "borrowing", "counted", "model_at",
-           "interrupt_at", "clock_at", "watch_addresses"]
+           "interrupt_at", "gil_ensure_at", "gil_release_at", "clock_at", "watch_addresses"]
 
 _PTR = types.CPointer(types.float64)
 
@@ -57,21 +57,32 @@ model_at = _function_at(MODEL_TYPE, """The generated function whose C entry poin
 #: ``int PyOS_InterruptOccurred(void)``: true once after a SIGINT (Ctrl-C), which it consumes
 interrupt_at = _function_at(types.FunctionType(types.intc()),
                             "CPython's ``PyOS_InterruptOccurred`` at ``address``.")
+#: ``PyGILState_STATE PyGILState_Ensure(void)``: the kernel runs without the GIL and takes it
+#: back for the moment it looks for Ctrl-C
+gil_ensure_at = _function_at(types.FunctionType(types.intc()),
+                             "CPython's ``PyGILState_Ensure`` at ``address``.")
+#: ``void PyGILState_Release(PyGILState_STATE)``
+gil_release_at = _function_at(types.FunctionType(types.void(types.intc)),
+                              "CPython's ``PyGILState_Release`` at ``address``.")
 #: ``int clock_gettime(clockid_t, struct timespec *)``, the timespec as two int64
 clock_at = _function_at(types.FunctionType(types.intc(types.intc, types.CPointer(types.int64))),
                         "The C library's ``clock_gettime`` at ``address``.")
 
 
-def watch_addresses() -> tuple[int, int]:
-    """The addresses of ``PyOS_InterruptOccurred`` and ``clock_gettime`` in this process
-    (``0`` for a C library without ``clock_gettime``: the kernel then cannot keep a
-    wall-clock limit, and the caller must not ask it to)."""
-    interrupted = ctypes.pythonapi.PyOS_InterruptOccurred
+def watch_addresses() -> tuple[int, int, int, int]:
+    """The addresses of ``PyOS_InterruptOccurred``, ``clock_gettime``, ``PyGILState_Ensure``
+    and ``PyGILState_Release`` in this process (``0`` for a C library without
+    ``clock_gettime``: the kernel then cannot keep a wall-clock limit, and the caller must
+    not ask it to)."""
+    api = ctypes.pythonapi
     try:
         clock = ctypes.cast(ctypes.CDLL(None).clock_gettime, ctypes.c_void_p).value or 0
     except (AttributeError, OSError, TypeError):
         clock = 0
-    return ctypes.cast(interrupted, ctypes.c_void_p).value or 0, clock
+
+    interrupted, ensure, release = (ctypes.cast(f, ctypes.c_void_p).value or 0 for f in (
+        api.PyOS_InterruptOccurred, api.PyGILState_Ensure, api.PyGILState_Release))
+    return interrupted, clock, ensure, release
 
 
 @intrinsic
