@@ -103,7 +103,6 @@ def hermite_extremes(h: np.ndarray, fa: np.ndarray, fb: np.ndarray, da: np.ndarr
     return pick(values, i_min), pick(s, i_min), pick(values, i_max), pick(s, i_max)
 
 
-
 def hermite_minimum_until(h: float, fa: float, fb: float, da: float, db: float,
                           s_end: float) -> float:
     """Minimum of the cubic of :func:`hermite_extremes` on ``[0, s_end]`` (``s_end <= 1``).

@@ -652,19 +652,19 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
                 if stats[0] >= max_steps:
                     code = STEP_LIMIT
                 elif stats[0] % _WATCH_EVERY == 0:
-                    ns = 0
+                    now_ns = 0
                     if timed:
                         clock(clock_id, ptr(now))
-                        ns = now[0] * 1_000_000_000 + now[1]
+                        now_ns = now[0] * 1_000_000_000 + now[1]
                     hit = 0
-                    if watch[1] != 0 and (not timed or ns >= next_look):
-                        next_look = ns + _LOOK_EVERY_NS
+                    if watch[1] != 0 and (not timed or now_ns >= next_look):
+                        next_look = now_ns + _LOOK_EVERY_NS
                         held = gil_ensure()  # CPython's flag is read under the GIL
                         hit = interrupted()
                         gil_release(held)
                     if hit != 0:
                         code = INTERRUPTED
-                    elif deadline > 0 and ns >= deadline:
+                    elif deadline > 0 and now_ns >= deadline:
                         code = TIME_LIMIT
                 if t_new >= t_stop or code != COMPLETED:
                     break
