@@ -11,7 +11,9 @@ computed set contains the exact one (the standard a-priori bounds of Higham,
 * a sum of ``k`` non-negative terms is within ``(k - 1) u`` of its exact value
   (relative), which :func:`up` covers (``k`` up to 1024 unless it is told more).
 
-Underflow adds at most ``k * 2**-1074`` to a dot product; :data:`TINY` covers it
+The unit roundoff :data:`U` and :data:`TINY` are the rounding policy's
+(:mod:`hybridlab.symbolic.interval_arithmetic`). Underflow adds at most
+``k * 2**-1074`` to a dot product; :data:`TINY` covers it
 for the dimensions used here. Overflow produces ``inf``, which the set classes
 refuse as non-finite, so it never passes silently.
 
@@ -32,14 +34,9 @@ import math
 
 import numpy as np
 
+from hybridlab.symbolic.interval_arithmetic import TINY, U
+
 __all__ = ["U", "TINY", "gamma", "product_error", "up"]
-
-U = 2.0 ** -53
-"""Unit roundoff of IEEE double precision, round to nearest."""
-
-TINY = 2.0 ** -1000
-"""Absolute term that covers gradual underflow in the products formed here."""
-
 
 
 @functools.lru_cache(maxsize=4096)

@@ -51,8 +51,8 @@ interval part, so the computed model encloses the exact one):
   absolute value over the domain, so the error of a whole polynomial is at most
   ``gamma`` times the sum of its absolute coefficients;
 * ``math.sin``, ``math.cos``, ``math.exp`` accurate to one unit in the last place
-  (glibc's documented bound), widened here to four units plus ``1e-300`` as in
-  :mod:`hybridlab.symbolic.intervals`;
+  (glibc's documented bound), widened here by the rounding policy of
+  :mod:`hybridlab.symbolic.interval_arithmetic` (64 units plus ``1e-300``);
 * the Lagrange form of the Taylor remainder for ``sin``, ``cos``, ``exp`` and
   ``1 / x`` (derivatives bounded by 1, by ``exp`` of the upper end, by
   ``1 / min |x|^(k+2)`` of a range that excludes 0);
@@ -95,6 +95,7 @@ import sympy as sp
 from hybridlab.errors import HybridlabError
 from hybridlab.reachability.rounding import TINY, U, gamma, up
 from hybridlab.reachability.sets import Zonotope
+from hybridlab.symbolic.interval_arithmetic import WIDEN
 
 __all__ = ["TaylorError", "TaylorFlowpipe", "TaylorSet", "bend", "orders"]
 
@@ -434,8 +435,9 @@ def _order(B: _Basis, y: float, factorial: bool = True) -> int:
 
 
 def _libm(v: float) -> float:
-    """The error bound assumed for a ``math`` function's result ``v`` (4 ulps + 1e-300)."""
-    return 8 * U * abs(v) + 1e-300
+    """The error bound assumed for a ``math`` function's result ``v``: the rounding
+    policy's widening (:mod:`hybridlab.symbolic.interval_arithmetic`)."""
+    return WIDEN * abs(v) + TINY
 
 
 def _sin_cos(B: _Basis, a: TM, cosine: bool, rough: bool = False) -> TM:

@@ -1,16 +1,14 @@
-"""Interval arithmetic with outward rounding, and sympy expressions evaluated over boxes.
+"""Sympy expressions enclosed over boxes, with the one interval arithmetic.
 
-Every operation rounds its result outward by one unit in the last place
-(``numpy.nextafter``), so the exact real result of the operation on the exact
-operands always lies inside the computed interval. The elementary functions
-(``exp``, ``sin``, ...) come from numpy, which is accurate to about one ulp
-but not guaranteed correctly rounded; their results are widened by four ulps
-plus ``1e-300`` to cover that.
-
-:class:`IntervalFunction` compiles sympy expressions (everything the model
+The arithmetic and its rounding policy are
+:mod:`hybridlab.symbolic.interval_arithmetic`'s: every end is rounded
+outward, so the exact real result on the exact operands lies inside.
+:class:`IntervalProgram` lowers sympy expressions (everything the model
 grammar allows: ``+ - * / **``, ``sin cos tan asin acos atan atan2 sinh cosh
 tanh exp log sqrt abs sign min max``, ``clip`` through min/max) once into a
-list of operations, each distinct subexpression once, and evaluates them over a box.
+list of instructions of that arithmetic, each distinct subexpression once;
+this module runs them in Python and the compiled simulator prints them as
+numba code.
 
 Two users with two needs: reachability (:class:`IntervalFunction`,
 :func:`interval_eval`) wants every construct enclosed or a clear
@@ -33,9 +31,10 @@ import sympy as sp
 
 from hybridlab.errors import HybridlabError
 from hybridlab.model.expressions import as_expression
+from hybridlab.symbolic import interval_arithmetic as ia
 
-__all__ = ["EmptyInterval", "Interval", "IntervalError", "IntervalFunction", "compile_interval",
-           "interval_eval"]
+__all__ = ["EmptyInterval", "Instruction", "Interval", "IntervalError", "IntervalFunction",
+           "IntervalProgram", "compile_interval", "interval_eval"]
 
 _INF = math.inf
 
@@ -70,35 +69,10 @@ class EmptyInterval(IntervalError):
     """
 
 
-_MAX = float(np.finfo(float).max)
-
-
-def _down(x: float) -> float:
-    """A lower bound of the exact value whose rounded result is ``x``; an overflow to
-    ``+inf`` is a finite number too large to represent, so its lower bound is the
-    largest float."""
-    if math.isfinite(x):
-        return float(np.nextafter(x, -_INF))
-    return _MAX if x > 0 else x
-
-
-def _up(x: float) -> float:
-    """An upper bound of the exact value whose rounded result is ``x`` (see :func:`_down`)."""
-    if math.isfinite(x):
-        return float(np.nextafter(x, _INF))
-    return -_MAX if x < 0 else x
-
-
-def _widen(lo: float, hi: float, ulps: int = 4) -> tuple[float, float]:
-    """Widen a numpy elementary-function result to cover its (unguaranteed) rounding."""
-    for _ in range(ulps):
-        lo, hi = _down(lo), _up(hi)
-    return lo - 1e-300, hi + 1e-300
-
-
-@dataclass(frozen=True, slots=True)
 class Interval:
     """A closed interval ``[lo, hi]`` of reals; ``lo`` may be ``-inf``, ``hi`` ``inf``.
+
+    The arithmetic is :mod:`hybridlab.symbolic.interval_arithmetic`'s.
 
     Examples
     --------
@@ -110,13 +84,23 @@ class Interval:
     0.0
     """
 
-    lo: float
-    hi: float
+    __slots__ = ("lo", "hi")
 
-    def __post_init__(self) -> None:
-        if not self.lo <= self.hi:  # also catches NaN
-            raise IntervalError(f"interval bounds must satisfy lo <= hi (got [{self.lo}, "
-                                f"{self.hi}])")
+    def __init__(self, lo: float, hi: float) -> None:
+        if not lo <= hi:  # also catches NaN
+            raise IntervalError(f"interval bounds must satisfy lo <= hi (got [{lo}, {hi}])")
+        self.lo = lo
+        self.hi = hi
+
+    def __repr__(self) -> str:
+        return f"Interval(lo={self.lo!r}, hi={self.hi!r})"
+
+    def __eq__(self, other: object) -> bool:
+        return (isinstance(other, Interval) and self.lo == other.lo
+                and self.hi == other.hi)
+
+    def __hash__(self) -> int:
+        return hash((self.lo, self.hi))
 
     # ----- construction -------------------------------------------------------------------
     @staticmethod
@@ -143,7 +127,8 @@ class Interval:
     @property
     def rad(self) -> float:
         """Half the width, rounded up."""
-        return _up(0.5 * (self.hi - self.lo))
+        half = 0.5 * (self.hi - self.lo)
+        return ia.upper(half, half)
 
     @property
     def mag(self) -> float:
@@ -166,7 +151,7 @@ class Interval:
     # ----- arithmetic -------------------------------------------------------------------------
     def __add__(self, other: Interval | float) -> Interval:
         o = Interval.of(other)
-        return Interval(_down(self.lo + o.lo), _up(self.hi + o.hi))
+        return _checked(ia.i_add(self.lo, self.hi, o.lo, o.hi), "i_add", self)
 
     __radd__ = __add__
 
@@ -174,317 +159,244 @@ class Interval:
         return Interval(-self.hi, -self.lo)
 
     def __sub__(self, other: Interval | float) -> Interval:
-        return self + (-Interval.of(other))
+        o = Interval.of(other)
+        return _checked(ia.i_sub(self.lo, self.hi, o.lo, o.hi), "i_sub", self)
 
     def __rsub__(self, other: Interval | float) -> Interval:
-        return Interval.of(other) + (-self)
+        return Interval.of(other) - self
 
     def __mul__(self, other: Interval | float) -> Interval:
         o = Interval.of(other)
-        products = []
-        for a in (self.lo, self.hi):
-            for b in (o.lo, o.hi):
-                # 0 * inf is 0 here: the interval end is only a bound, never attained
-                products.append(0.0 if a == 0.0 or b == 0.0 else a * b)
-        return Interval(_down(min(products)), _up(max(products)))
+        return _checked(ia.i_mul(self.lo, self.hi, o.lo, o.hi), "i_mul", self)
 
     __rmul__ = __mul__
 
     def reciprocal(self) -> Interval:
         """``1 / x``; the whole line when the interval contains zero."""
-        if self.lo <= 0.0 <= self.hi:
-            return Interval.entire()
-        return Interval(_down(1.0 / self.hi), _up(1.0 / self.lo))
+        return _checked(ia.i_recip(self.lo, self.hi), "i_recip", self)
 
     def __truediv__(self, other: Interval | float) -> Interval:
-        return self * Interval.of(other).reciprocal()
+        o = Interval.of(other)
+        return _checked(ia.i_div(self.lo, self.hi, o.lo, o.hi), "i_div", self)
 
     def __rtruediv__(self, other: Interval | float) -> Interval:
-        return Interval.of(other) * self.reciprocal()
+        return Interval.of(other) / self
 
     def __pow__(self, exponent: Interval | float) -> Interval:
-        if isinstance(exponent, Interval):
-            if exponent.lo == exponent.hi:
-                return self ** exponent.lo
-            return _exp(exponent * _log(self))
-        e = float(exponent)
-        if e == int(e) and abs(e) <= 1e6:
-            return self._ipow(int(e))
+        if isinstance(exponent, Interval) and exponent.lo != exponent.hi:
+            return _checked(ia.i_rpow(self.lo, self.hi, exponent.lo, exponent.hi), "i_rpow",
+                            self)
+        e = float(exponent.lo if isinstance(exponent, Interval) else exponent)
+        if e == int(e) and abs(e) <= 2.0 ** 62:
+            return _checked(ia.i_powi(self.lo, self.hi, int(e)), "i_powi", self)
         if e == 0.5:
-            return _sqrt(self)
-        return _exp(Interval.point(e) * _log(self))
-
-    def _ipow(self, k: int) -> Interval:
-        if k == 0:
-            return Interval(1.0, 1.0)
-        if k < 0:
-            return self._ipow(-k).reciprocal()
-        if k == 1:
-            return self
-        if k % 2 == 0:  # even: a function of |x|, smallest at the point nearest zero
-            a = 0.0 if self.lo <= 0.0 <= self.hi else min(abs(self.lo), abs(self.hi))
-            lo, hi = a, self.mag
-        else:  # odd: increasing
-            lo, hi = self.lo, self.hi
-        with np.errstate(over="ignore"):
-            plo, phi = float(np.power(lo, k)), float(np.power(hi, k))
-        rel = (k + 2) * 2.3e-16  # a float power is within about k ulps of the exact one
-        plo, phi = plo - abs(plo) * rel - 1e-300, phi + abs(phi) * rel + 1e-300
-        if k % 2 == 0:
-            plo = max(plo, 0.0)
-        return Interval(plo, phi)
+            return _checked(ia.i_sqrt(self.lo, self.hi), "i_sqrt", self)
+        return _checked(ia.i_pow(self.lo, self.hi, e), "i_pow", self)
 
 
-def _monotone(f: Callable[[float], float], x: Interval, increasing: bool = True) -> Interval:
-    with np.errstate(all="ignore"):
-        a, b = float(f(x.lo)), float(f(x.hi))
-    lo, hi = (a, b) if increasing else (b, a)
-    return Interval(*_widen(lo, hi))
+_UNDEFINED = {"i_sqrt": "sqrt of a negative interval", "i_log": "log of a non-positive interval",
+              "i_pow": "non-integer power of a negative interval",
+              "i_asin": "asin of an interval outside [-1, 1]",
+              "i_acos": "acos of an interval outside [-1, 1]"}
 
 
-def _exp(x: Interval) -> Interval:
-    r = _monotone(np.exp, x)
-    return Interval(max(r.lo, 0.0), r.hi)
+def _undefined(op: str, operand: Interval) -> EmptyInterval:
+    """The error for ``op`` undefined on every point of ``operand``."""
+    what = _UNDEFINED.get(op, f"{op[2:]} of an interval outside its domain")
+    return EmptyInterval(f"{what} [{operand.lo}, {operand.hi}]")
 
 
-def _log(x: Interval) -> Interval:
-    if x.hi <= 0.0:  # empty below zero; at hi == 0 only the point 0 (log = -inf) is left
-        kind = EmptyInterval if x.hi < 0.0 else IntervalError
-        raise kind(f"log of a non-positive interval [{x.lo}, {x.hi}]")
-    lo = -_INF if x.lo <= 0.0 else x.lo
-    return _monotone(lambda v: np.log(v) if v > 0 else -_INF, Interval(lo, x.hi))
-
-
-def _sqrt(x: Interval) -> Interval:
-    if x.hi < 0.0:
-        raise EmptyInterval(f"sqrt of a negative interval [{x.lo}, {x.hi}]")
-    r = _monotone(np.sqrt, Interval(max(x.lo, 0.0), x.hi))
-    return Interval(max(r.lo, 0.0), r.hi)
-
-
-def _contains_point_of_lattice(x: Interval, offset: float, period: float) -> bool:
-    """Whether ``[lo, hi]`` (slightly widened) contains some ``offset + k * period``."""
-    slack = 1e-12 * max(1.0, x.mag)
-    k = math.ceil((x.lo - slack - offset) / period)
-    return offset + k * period <= x.hi + slack
-
-
-def _sin(x: Interval) -> Interval:
-    if not (math.isfinite(x.lo) and math.isfinite(x.hi)) or x.hi - x.lo >= 2 * math.pi:
-        return Interval(-1.0, 1.0)
-    a, b = math.sin(x.lo), math.sin(x.hi)
-    lo, hi = _widen(min(a, b), max(a, b))
-    if _contains_point_of_lattice(x, math.pi / 2, 2 * math.pi):
-        hi = 1.0
-    if _contains_point_of_lattice(x, -math.pi / 2, 2 * math.pi):
-        lo = -1.0
-    return Interval(max(lo, -1.0), min(hi, 1.0))
-
-
-def _cos(x: Interval) -> Interval:
-    return _sin(x + Interval(_down(math.pi / 2), _up(math.pi / 2)))
-
-
-def _tan(x: Interval) -> Interval:
-    if (not (math.isfinite(x.lo) and math.isfinite(x.hi)) or x.hi - x.lo >= math.pi
-            or _contains_point_of_lattice(x, math.pi / 2, math.pi)):
-        return Interval.entire()
-    return _monotone(np.tan, x)
-
-
-def _clamped(f: Callable[[float], float], lo: float, hi: float, increasing: bool = True):
-    def apply(x: Interval) -> Interval:
-        if x.hi < lo or x.lo > hi:
-            raise EmptyInterval(f"argument [{x.lo}, {x.hi}] outside the domain [{lo}, {hi}]")
-        return _monotone(f, Interval(max(x.lo, lo), min(x.hi, hi)), increasing)
-    return apply
-
-
-def _cosh(x: Interval) -> Interval:
-    hi = _monotone(np.cosh, Interval(x.mag, x.mag)).hi
-    lo = 1.0 if x.lo <= 0.0 <= x.hi else _monotone(np.cosh, Interval(*(2 * [min(
-        abs(x.lo), abs(x.hi))]))).lo
-    return Interval(max(lo, 1.0), hi)
-
-
-def _abs(x: Interval) -> Interval:
-    if x.lo >= 0:
-        return x
-    if x.hi <= 0:
-        return -x
-    return Interval(0.0, x.mag)
-
-
-def _sign(x: Interval) -> Interval:
-    lo = -1.0 if x.lo < 0 else (0.0 if x.lo == 0 else 1.0)
-    hi = 1.0 if x.hi > 0 else (0.0 if x.hi == 0 else -1.0)
+def _checked(pair: tuple[float, float], op: str, operand: Interval) -> Interval:
+    lo, hi = pair
+    if ia.is_empty(lo, hi):
+        raise _undefined(op, operand)
     return Interval(lo, hi)
 
 
-def _heaviside(x: Interval) -> Interval:
-    return Interval(0.0 if x.lo <= 0 else 1.0, 1.0 if x.hi >= 0 else 0.0)
+Pair = tuple[float, float]
+Step = Callable[[list[Pair]], Pair]
+"""One instruction of a :class:`IntervalProgram` run in Python: a slot from earlier slots."""
 
-
-def _min(*xs: Interval) -> Interval:
-    return Interval(min(x.lo for x in xs), min(x.hi for x in xs))
-
-
-def _max(*xs: Interval) -> Interval:
-    return Interval(max(x.lo for x in xs), max(x.hi for x in xs))
-
-
-def _atan2(y: Interval, x: Interval) -> Interval:
-    if x.lo > 0:  # right half-plane: atan(y / x) is exact and continuous there
-        return _monotone(np.arctan, y / x)
-    if y.lo > 0 or y.hi < 0:  # upper or lower half-plane: pi/2 - atan(x / y)
-        r = Interval(_down(math.pi / 2), _up(math.pi / 2)) - _monotone(np.arctan, x / y)
-        return r if y.lo > 0 else r - Interval(_down(math.pi), _up(math.pi))
-    return Interval(_down(-math.pi), _up(math.pi))
-
-
-_UNARY: Mapping[type, Callable[[Interval], Interval]] = {
-    sp.exp: _exp,
-    sp.log: _log,
-    sp.sin: _sin,
-    sp.cos: _cos,
-    sp.tan: _tan,
-    sp.asin: _clamped(np.arcsin, -1.0, 1.0),
-    sp.acos: _clamped(np.arccos, -1.0, 1.0, increasing=False),
-    sp.atan: lambda x: _monotone(np.arctan, x),
-    sp.sinh: lambda x: _monotone(np.sinh, x),
-    sp.cosh: _cosh,
-    sp.tanh: lambda x: _monotone(np.tanh, x),
-    sp.Abs: _abs,
-    sp.sign: _sign,
-    sp.Heaviside: _heaviside,
+_UNARY: Mapping[type, str] = {
+    sp.exp: "i_exp", sp.log: "i_log", sp.sin: "i_sin", sp.cos: "i_cos", sp.tan: "i_tan",
+    sp.asin: "i_asin", sp.acos: "i_acos", sp.atan: "i_atan", sp.sinh: "i_sinh",
+    sp.cosh: "i_cosh", sp.tanh: "i_tanh", sp.Abs: "i_abs", sp.sign: "i_sign",
+    sp.Heaviside: "i_heaviside",
 }
-
-Step = Callable[[list[Interval]], Interval]
-"""One operation of a :class:`_Program`: the value of a slot from the slots before it."""
-
-
-def _constant(value: sp.Expr) -> Interval:
-    if value.is_Integer or (value.is_Float and float(value) == value):
-        v = float(value)
-        if v == int(value):
-            return Interval.point(v)
-    v = float(sp.N(value, 30))
-    return Interval(_down(v), _up(v))
+_FOLD: Mapping[type, str] = {sp.Add: "i_add", sp.Mul: "i_mul", sp.Min: "i_min", sp.Max: "i_max"}
+_SUPPORTED = (*_FOLD, sp.Pow, sp.atan2, *_UNARY)
 
 
-def _general_power(base: Interval, exponent: Interval) -> Interval:
-    """``base ** exponent`` for a variable exponent: a negative base is not empty there
-    (an integer exponent is defined), so the log's :class:`EmptyInterval` is only an error."""
-    try:
-        return base ** exponent
-    except EmptyInterval as exc:
-        raise IntervalError(str(exc)) from None
+@dataclass(frozen=True)
+class Instruction:
+    """``slot = op(*args, *consts)``: ``args`` are earlier slots, ``consts`` numbers.
+
+    Examples
+    --------
+    >>> x = sp.Symbol("x")
+    >>> IntervalProgram.of([2 * x], [x]).instructions  # doctest: +NORMALIZE_WHITESPACE
+    [Instruction(op='i_point', args=(), consts=(2.0,)),
+     Instruction(op='i_mul', args=(1, 0), consts=())]
+    """
+
+    op: str
+    args: tuple[int, ...]
+    consts: tuple[float, ...] = ()
 
 
-class _Program:
-    """Expressions as one list of operations over slots, each distinct subexpression once.
+class IntervalProgram:
+    """Expressions lowered once to interval instructions, each distinct subexpression once.
 
-    Slots ``0 .. n-1`` hold the arguments' intervals; every other slot is one operation
-    on earlier slots. A subexpression shared by several expressions (a Lagrangian flow's
-    ``1/det M(phi)`` in every entry of its Hessian) is evaluated once per call; the
-    operations are those of evaluating each expression's tree, so the enclosures are the
-    same. ``lenient``: what cannot be enclosed is the whole line instead of an error.
+    Slots ``0 .. n-1`` hold the arguments; every other slot is one
+    :class:`Instruction` of :mod:`hybridlab.symbolic.interval_arithmetic` on
+    earlier slots. The program is run here in Python (:meth:`run`) and printed
+    as numba code by the compiled simulator, so both evaluate the same
+    operations. ``lenient``: a construct that cannot be enclosed (an unknown
+    function, a symbol without an interval, a non-finite constant) is the whole
+    line instead of an :class:`IntervalError`.
+
+    Examples
+    --------
+    >>> x = sp.Symbol("x")
+    >>> program = IntervalProgram.of([sp.sin(x) ** 2 + sp.sin(x)], [x])
+    >>> [ins.op for ins in program.instructions]  # sin(x) once
+    ['i_sin', 'i_powi', 'i_add']
+    >>> lo, hi = program.run([(0.0, math.pi)])[program.outputs[0]]
+    >>> -1e-13 < lo <= 0.0 and 2.0 <= hi < 2.0 + 1e-13
+    True
     """
 
     def __init__(self, index: Mapping[sp.Symbol, int], lenient: bool = False) -> None:
-        self.index = index
+        self.index = dict(index)
         self.lenient = lenient
         self.n_args = len(index)
-        self.steps: list[Step] = []
-        self.slots: dict[sp.Expr, int] = {}
+        self.instructions: list[Instruction] = []
+        self.outputs: list[int] = []
+        self._slots: dict[sp.Expr, int] = {}
+        self._steps: list[Step] | None = None
+
+    @classmethod
+    def of(cls, exprs: Sequence[sp.Expr], symbols: Sequence[sp.Symbol],
+           lenient: bool = False) -> IntervalProgram:
+        """The program of ``exprs`` over ``symbols`` (in this order the arguments)."""
+        program = cls({s: i for i, s in enumerate(symbols)}, lenient)
+        program.outputs = [program.add(as_expression(e)) for e in exprs]
+        return program
+
+    def bind(self, symbol: sp.Symbol, expr: sp.Expr) -> None:
+        """Make ``symbol`` stand for ``expr`` (a common subexpression) in later expressions."""
+        self.index[symbol] = self.add(expr)
 
     def add(self, expr: sp.Expr) -> int:
-        """The slot holding ``expr``'s enclosure (its operations appended once)."""
-        if expr.is_Symbol and not self.lenient or expr.is_Symbol and expr in self.index:
-            if expr not in self.index:
-                raise IntervalError(f"no interval given for symbol {expr}")
+        """The slot holding ``expr``'s enclosure (its instructions appended once)."""
+        if expr in self.index:
             return self.index[expr]
-        known = self.slots.get(expr)
+        known = self._slots.get(expr)
         if known is not None:
             return known
-        step = self._step(expr)
-        self.steps.append(step)
-        slot = self.n_args + len(self.steps) - 1
-        self.slots[expr] = slot
+        slot = self._emit(*self._lower(expr))
+        self._slots[expr] = slot
         return slot
 
-    def run(self, env: Sequence[Interval]) -> list[Interval]:
+    def _emit(self, op: str, args: tuple[int, ...] = (), consts: tuple[float, ...] = ()) -> int:
+        self.instructions.append(Instruction(op, args, consts))
+        return self.n_args + len(self.instructions) - 1
+
+    def _lower(self, expr: sp.Expr) -> tuple[str, tuple[int, ...], tuple[float, ...]]:
+        if expr.is_Symbol:
+            if not self.lenient:
+                raise IntervalError(f"no interval given for symbol {expr}")
+            return "i_entire", (), ()
+        if expr.is_Number or expr.is_NumberSymbol:
+            return self._constant(expr)
+        if not isinstance(expr, _SUPPORTED):
+            if self.lenient:
+                return "i_entire", (), ()
+            raise IntervalError(f"interval arithmetic does not support {type(expr).__name__} "
+                                f"in {expr}")
+        if isinstance(expr, sp.Pow):
+            return self._power(expr)
+        if isinstance(expr, sp.Mul) and expr.args[0] == -1:  # negation is exact
+            return "i_neg", (self.add(sp.Mul(*expr.args[1:])),), ()
+        fold = _FOLD.get(type(expr))
+        if fold is not None:
+            return self._fold(fold, expr.args)
+        if isinstance(expr, sp.atan2):
+            return "i_atan2", (self.add(expr.args[0]), self.add(expr.args[1])), ()
+        return _UNARY[type(expr)], (self.add(expr.args[0]),), ()
+
+    def _constant(self, value: sp.Expr) -> tuple[str, tuple[int, ...], tuple[float, ...]]:
+        if not value.is_finite:
+            if self.lenient:
+                return "i_entire", (), ()
+            raise IntervalError(f"non-finite constant {value}")
+        v = float(sp.N(value, 30))
+        exact = ((value.is_Rational and sp.Rational(v) == value)
+                 or (value.is_Float and value._prec <= 53))  # a float's own 53 bits
+        return ("i_point" if exact else "i_const"), (), (v,)
+
+    def _fold(self, op: str, terms: Sequence[sp.Expr]) -> tuple[str, tuple[int, ...], tuple]:
+        """A sum, product, min or max of two or more terms, left to right (a sum subtracts
+        the terms with a coefficient of -1)."""
+        acc = self.add(terms[0])
+        for term in terms[1:-1]:
+            acc = self._emit(*self._pair(op, acc, term))
+        return self._pair(op, acc, terms[-1])
+
+    def _pair(self, op: str, acc: int, term: sp.Expr) -> tuple[str, tuple[int, ...], tuple]:
+        if op == "i_add" and isinstance(term, sp.Mul) and term.args[0] == -1:
+            return "i_sub", (acc, self.add(sp.Mul(*term.args[1:]))), ()
+        return op, (acc, self.add(term)), ()
+
+    def _power(self, expr: sp.Pow) -> tuple[str, tuple[int, ...], tuple[float, ...]]:
+        base, e = expr.args
+        b = self.add(base)
+        if e.is_Integer:
+            return "i_powi", (b,), (int(e),)
+        if e == sp.Rational(1, 2):
+            return "i_sqrt", (b,), ()
+        if e == sp.Rational(-1, 2):
+            return "i_recip", (self._emit("i_sqrt", (b,)),), ()
+        if e.is_Number:
+            if not e.is_finite:
+                return self._constant(e)
+            return "i_pow", (b,), (float(e),)
+        return "i_rpow", (b, self.add(e)), ()
+
+    # ----- running in Python ------------------------------------------------------------------
+    def run(self, env: Sequence[Pair]) -> list[Pair]:
         """Every slot's interval, the arguments ``env`` first."""
+        if self._steps is None:
+            self._steps = [_step(i) for i in self.instructions]
         vals = list(env)
-        for step in self.steps:
+        for step in self._steps:
             vals.append(step(vals))
         return vals
 
-    def _step(self, expr: sp.Expr) -> Step:
-        if self.lenient and not (expr.is_Symbol or expr.is_Number or expr.is_NumberSymbol
-                                 or _supported(expr)):
-            return lambda vals: _ENTIRE
-        if expr.is_Symbol:  # lenient, and not given: the whole line
-            return lambda vals: _ENTIRE
-        if expr.is_Number or expr.is_NumberSymbol:
-            if not expr.is_finite:
-                if self.lenient:
-                    return lambda vals: _ENTIRE
-                raise IntervalError(f"non-finite constant {expr}")
-            c = _constant(expr)
-            return lambda vals: c
-        args = [self.add(a) for a in expr.args]
-        if isinstance(expr, sp.Add):
-            first, rest = args[0], args[1:]
-
-            def add(vals: list[Interval]) -> Interval:
-                total = vals[first]
-                for a in rest:
-                    total = total + vals[a]
-                return total
-            return add
-        if isinstance(expr, sp.Mul):
-            first, rest = args[0], args[1:]
-
-            def mul(vals: list[Interval]) -> Interval:
-                total = vals[first]
-                for a in rest:
-                    total = total * vals[a]
-                return total
-            return mul
-        if isinstance(expr, sp.Pow):
-            base, exponent = args
-            e = expr.args[1]
-            if e.is_Integer:
-                k = int(e)
-                return lambda vals: vals[base]._ipow(k)
-            if e == sp.Rational(1, 2):
-                return lambda vals: _sqrt(vals[base])
-            if e == sp.Rational(-1, 2):
-                return lambda vals: _sqrt(vals[base]).reciprocal()
-            if e.is_Number:  # a non-integer constant power: real only for a base >= 0
-                return lambda vals: vals[base] ** vals[exponent]
-            return lambda vals: _general_power(vals[base], vals[exponent])
-        if isinstance(expr, sp.Min):
-            return lambda vals: _min(*(vals[a] for a in args))
-        if isinstance(expr, sp.Max):
-            return lambda vals: _max(*(vals[a] for a in args))
-        if isinstance(expr, sp.atan2):
-            return lambda vals: _atan2(vals[args[0]], vals[args[1]])
-        for kind, f in _UNARY.items():
-            if isinstance(expr, kind):
-                arg = args[0]
-                return lambda vals: f(vals[arg])
-        raise IntervalError(f"interval arithmetic does not support {type(expr).__name__} "
-                            f"in {expr}")
+    def undefined(self, vals: Sequence[Pair]) -> EmptyInterval:
+        """The error naming the first instruction that came out empty in ``vals``."""
+        for k, ins in enumerate(self.instructions):
+            if ia.is_empty(*vals[self.n_args + k]) and ins.args:
+                operand = vals[ins.args[0]]
+                if not ia.is_empty(*operand):
+                    return _undefined(ins.op, Interval(*operand))
+        return EmptyInterval("an expression is undefined on the whole box")
 
 
-_ENTIRE = Interval.entire()
-_SUPPORTED = (sp.Add, sp.Mul, sp.Pow, sp.Min, sp.Max, sp.atan2, *_UNARY)
-
-
-def _supported(expr: sp.Expr) -> bool:
-    return isinstance(expr, _SUPPORTED)
+def _step(ins: Instruction) -> Step:
+    """``ins`` as a Python function of the slot list."""
+    f = getattr(ia, ins.op)
+    c = ins.consts
+    if len(ins.args) == 0:
+        value = f(*c)
+        return lambda vals: value
+    if len(ins.args) == 1:
+        (a,) = ins.args
+        if c:
+            return lambda vals: f(*vals[a], *c)
+        return lambda vals: f(*vals[a])
+    a, b = ins.args
+    return lambda vals: f(*vals[a], *vals[b])
 
 
 class IntervalFunction:
@@ -497,6 +409,13 @@ class IntervalFunction:
     symbols : sequence of sympy.Symbol
         Their arguments, in the order of the box's rows.
 
+    Raises
+    ------
+    IntervalError
+        For a symbol not in ``symbols`` or a construct it cannot enclose; when
+        called, :class:`EmptyInterval` if an expression is undefined at every
+        point of the box.
+
     Examples
     --------
     >>> x, y = sp.symbols("x y", real=True)
@@ -508,20 +427,30 @@ class IntervalFunction:
 
     def __init__(self, exprs: Sequence[sp.Expr], symbols: Sequence[sp.Symbol]) -> None:
         self.exprs = tuple(as_expression(e) for e in exprs)
-        self._program = _Program({s: i for i, s in enumerate(symbols)})
-        self._outputs = [self._program.add(e) for e in self.exprs]
+        self.program = IntervalProgram.of(self.exprs, symbols)
+
+    def pairs(self, env: Sequence[Pair]) -> list[Pair]:
+        """Evaluate on argument intervals given as ``(lo, hi)`` pairs."""
+        vals = self.program.run(env)
+        out = [vals[k] for k in self.program.outputs]
+        for lo, hi in out:
+            if not lo <= hi:
+                raise self.program.undefined(vals)
+        return out
 
     def intervals(self, env: Sequence[Interval]) -> list[Interval]:
         """Evaluate on a list of argument intervals."""
-        vals = self._program.run(env)
-        return [vals[k] for k in self._outputs]
+        return [Interval(lo, hi) for lo, hi in self.pairs([(i.lo, i.hi) for i in env])]
 
     def __call__(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Enclosures ``(lo, hi)`` of every expression over the box ``[lo, hi]``."""
-        env = [Interval(float(a), float(b)) for a, b in zip(lo, hi, strict=True)]
-        out = self.intervals(env)
-        return (np.array([r.lo for r in out], dtype=float),
-                np.array([r.hi for r in out], dtype=float))
+        env = [(float(a), float(b)) for a, b in zip(lo, hi, strict=True)]
+        for a, b in env:
+            if not a <= b:
+                raise IntervalError(f"interval bounds must satisfy lo <= hi (got [{a}, {b}])")
+        out = self.pairs(env)
+        return (np.array([r[0] for r in out], dtype=float),
+                np.array([r[1] for r in out], dtype=float))
 
 
 def interval_eval(expr: sp.Expr,
@@ -586,14 +515,15 @@ def compile_interval(expr: sp.Expr) -> Callable[[Mapping[sp.Symbol, Interval]], 
     """
     expr = as_expression(expr)
     symbols = sorted(expr.free_symbols, key=str)
-    program = _Program({s: i for i, s in enumerate(symbols)}, lenient=True)
-    out = program.add(expr)
+    program = IntervalProgram.of([expr], symbols, lenient=True)
+    out = program.outputs[0]
+    entire = (-_INF, _INF)
 
     def evaluate(box: Mapping[sp.Symbol, Interval]) -> Interval:
-        try:
-            return program.run([box.get(s, _ENTIRE) for s in symbols])[out]
-        except EmptyInterval:
-            raise
-        except IntervalError:
-            return _ENTIRE
+        env = [(b.lo, b.hi) if (b := box.get(s)) is not None else entire for s in symbols]
+        vals = program.run(env)
+        lo, hi = vals[out]
+        if not lo <= hi:
+            raise program.undefined(vals)
+        return Interval(lo, hi)
     return evaluate

@@ -13,8 +13,8 @@ This is exact, not an approximation. The location search only reports a
 monitor at a time where its computed value reaches the tolerance (every
 report rests on an evaluation of the monitor on the dense output, see
 :mod:`.locate`), and the bounds enclose every such evaluation, rounding
-included (:mod:`.interval_ops`). A monitor that is disarmed and proven above
-the tolerance is the same case: the sampler would re-arm it and find
+included (:mod:`hybridlab.symbolic.interval_arithmetic`). A monitor that is
+disarmed and proven above the tolerance is the same case: the sampler would re-arm it and find
 nothing. Steps with a sliding exit are never skipped (the equivalent signs
 have no interval version), nor are steps with a disarmed monitor that may stay
 below the tolerance: there the sampler's own cubic estimate decides when the
@@ -30,11 +30,10 @@ from hybridlab.simulation.compiled.integrate import RK45
 from hybridlab.simulation.compiled.locate import GUARD, INVARIANT, SWITCH
 from hybridlab.simulation.compiled.opcodes import OP_GUARD_BOX, OP_INV_BOX, OP_SWITCH_BOX
 from hybridlab.simulation.compiled.signatures import borrowing, ptr
+from hybridlab.symbolic.interval_arithmetic import TINY, WIDEN
 
 __all__ = ["state_box", "quiet_step", "box_workspace"]
 
-_WIDEN = 2.0 ** -46  # as interval_ops: 64 units in the last place
-_TINY = 1e-300
 
 
 @numba.njit(cache=True)
@@ -85,7 +84,7 @@ def state_box(method, coef, h, y_old, act, box):
         if method == RK45:  # y_old + h * (the polynomial)
             lo, hi = min(h * lo, h * hi), max(h * lo, h * hi)
             mag *= abs(h)
-        d = _WIDEN * (mag + abs(y_old[q])) + _TINY
+        d = WIDEN * (mag + abs(y_old[q])) + TINY
         box[q] = y_old[q] + lo - d
         box[n + q] = y_old[q] + hi + d
 
@@ -113,8 +112,8 @@ def quiet_step(box_model, md, p, sig, step, t0, t1, tol, armed, bx, guard_group,
         if mk[r] == SWITCH and sig[mref[r]] == 0.0:
             return False
     state_box(method, coef, h, y_old, act, box)
-    tb[0] = t0 - (_WIDEN * abs(t0) + _TINY)
-    tb[1] = t1 + (_WIDEN * abs(t1) + _TINY)
+    tb[0] = t0 - (WIDEN * abs(t0) + TINY)
+    tb[1] = t1 + (WIDEN * abs(t1) + TINY)
     invariants = switches = False
     for r in range(mk.size):
         kind = mk[r]

@@ -31,6 +31,7 @@ from pathlib import Path
 import sympy as sp
 
 from hybridlab.model.checks import TIME
+from hybridlab.simulation.compiled import interval_ops
 from hybridlab.simulation.compiled.box_printer import box_body
 from hybridlab.simulation.compiled.opcodes import (
     N_OPS,
@@ -51,6 +52,7 @@ from hybridlab.simulation.compiled.opcodes import (
     OP_SWITCH_GRAD,
     OP_SWITCH_LIE,
 )
+from hybridlab.symbolic import interval_arithmetic
 from hybridlab.symbolic.compile import CompiledModel
 from hybridlab.symbolic.printing import PrintError, lower, scalar_printer
 
@@ -59,9 +61,10 @@ __all__ = ["ModelSource", "UnsupportedModel", "generate", "active_states"]
 _BOX_OF = {OP_GUARD_BOX: OP_GUARD, OP_SWITCH_BOX: OP_SWITCH}
 _BOX_OPS = (OP_GUARD_BOX, OP_INV_BOX, OP_SWITCH_BOX)
 #: the generated module's name hashes its text: this digest makes it change with the
-#: interval functions it calls
-_INTERVAL_DIGEST = hashlib.sha256(
-    (Path(__file__).parent / "interval_ops.py").read_bytes()).hexdigest()[:16]
+#: interval functions it calls (numba checks a cached function against its own file only)
+_INTERVAL_DIGEST = hashlib.sha256(b"".join(
+    Path(path).read_bytes() for path in (interval_ops.__file__, interval_arithmetic.__file__)
+)).hexdigest()[:16]
 
 
 class UnsupportedModel(Exception):
