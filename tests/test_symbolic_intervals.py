@@ -9,12 +9,14 @@ from __future__ import annotations
 import math
 import random
 
+import mpmath
 import numpy as np
 import pytest
 import sympy as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from hybridlab.symbolic import interval_arithmetic as ia
 from hybridlab.symbolic.interval_arithmetic import WIDEN
 from hybridlab.symbolic.intervals import (
     EmptyInterval,
@@ -144,3 +146,47 @@ def test_text_is_never_evaluated():
         compile_interval("__import__('os').system('echo no')")
     with pytest.raises(TypeError, match="parse text"):
         interval_eval("x + 1", {sp.Symbol("x"): (0.0, 1.0)})
+
+
+# ----- the arithmetic against exact values (50 digits) ------------------------------------------
+_EXACT_UNARY = [
+    ("i_exp", mpmath.exp, (-30.0, 30.0)), ("i_log", mpmath.log, (1e-3, 50.0)),
+    ("i_sqrt", mpmath.sqrt, (0.0, 50.0)), ("i_sin", mpmath.sin, (-20.0, 20.0)),
+    ("i_cos", mpmath.cos, (-20.0, 20.0)), ("i_tan", mpmath.tan, (-1.5, 1.5)),
+    ("i_atan", mpmath.atan, (-50.0, 50.0)), ("i_tanh", mpmath.tanh, (-20.0, 20.0)),
+    ("i_sinh", mpmath.sinh, (-20.0, 20.0)), ("i_cosh", mpmath.cosh, (-20.0, 20.0)),
+    ("i_asin", mpmath.asin, (-1.0, 1.0)), ("i_acos", mpmath.acos, (-1.0, 1.0)),
+]
+
+
+@pytest.mark.parametrize("name, exact, domain", _EXACT_UNARY, ids=[u[0] for u in _EXACT_UNARY])
+@settings(max_examples=40, deadline=None)
+@given(a=st.floats(0.0, 1.0), b=st.floats(0.0, 1.0))
+def test_every_function_encloses_the_exact_value_at_every_point(name, exact, domain, a, b):
+    lo, hi = sorted(domain[0] + v * (domain[1] - domain[0]) for v in (a, b))
+    out_lo, out_hi = getattr(ia, name)(lo, hi)
+    with mpmath.workdps(50):
+        for v in np.linspace(lo, hi, 17):
+            value = exact(mpmath.mpf(float(v)))
+            assert out_lo <= value <= out_hi, (name, lo, hi, v)
+
+
+@settings(max_examples=200, deadline=None)
+@given(a=st.tuples(st.floats(-1e3, 1e3), st.floats(-1e3, 1e3)).map(sorted),
+       b=st.tuples(st.floats(-1e3, 1e3), st.floats(-1e3, 1e3)).map(sorted),
+       k=st.integers(-5, 7), e=st.floats(0.1, 3.5))
+def test_arithmetic_encloses_the_exact_results(a, b, k, e):
+    with mpmath.workdps(60):
+        ends = [(mpmath.mpf(u), mpmath.mpf(v)) for u in a for v in b]
+        checks = [(ia.i_add(*a, *b), [u + v for u, v in ends]),
+                  (ia.i_mul(*a, *b), [u * v for u, v in ends])]
+        if not b[0] <= 0.0 <= b[1]:
+            checks.append((ia.i_div(*a, *b), [u / v for u, v in ends]))
+        if not (k < 0 and a[0] <= 0.0 <= a[1]):
+            points = [mpmath.mpf(float(v)) for v in np.linspace(a[0], a[1], 9)]
+            checks.append((ia.i_powi(*a, k), [p ** k for p in points]))
+        if a[1] > 0.0:
+            points = [mpmath.mpf(float(v)) for v in np.linspace(max(a[0], 0.0), a[1], 9)]
+            checks.append((ia.i_pow(*a, e), [p ** mpmath.mpf(e) for p in points]))
+        for (lo, hi), values in checks:
+            assert all(lo <= v <= hi for v in values)
