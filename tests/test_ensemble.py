@@ -6,6 +6,8 @@ from __future__ import annotations
 import concurrent.futures as cf
 import csv
 import math
+import signal
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -300,6 +302,31 @@ def test_ctrl_c_during_a_sweep_keeps_every_finished_run():
     assert list(table["status"]) == ["COMPLETED"] * 2 + ["INTERRUPTED"] * 3
     assert table["t"].tolist()[:2] == [1.0, 1.0]
     assert "interrupted (Ctrl-C)" in table.column("error")[4]
+
+
+def test_ctrl_c_stops_a_threads_sweep_after_the_runs_in_progress():
+    # Ctrl-C reaches the main thread only; the chunks running in the pool's threads
+    # (200 runs each) must stop after their current run, and their finished runs count
+    main_thread = threading.main_thread().ident
+    calls = []
+
+    def interrupt_on_the_fifth_run(result):
+        calls.append(result.final.t)
+        if len(calls) == 5:
+            signal.pthread_kill(main_thread, signal.SIGINT)
+        return result.final.t
+
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        table = hybridlab.sweep(BALL, grid={"e": np.linspace(0.5, 0.9, 400).tolist()},
+                                t_end=1.0, observe={"t": interrupt_on_the_fifth_run},
+                                executor="threads", chunksize=200, backend="reference")
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    done = int((table["status"] == "COMPLETED").sum())
+    assert table.interrupted
+    assert 5 <= done == len(calls) < 100
+    assert int((table["status"] == "INTERRUPTED").sum()) == 400 - done
 
 
 def test_a_per_run_time_limit_bounds_each_run_of_a_sweep(tmp_path):

@@ -7,6 +7,7 @@ import dataclasses
 import inspect
 import math
 import pickle
+import threading
 import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -177,7 +178,7 @@ def _run_pooled(placement: Any, chunks: Sequence[Chunk], collect: Any) -> Any:
     again runs one chunk at a time, each in a pool of its own, so that only the chunk
     that kills its process is recorded as ``ERROR`` rows.
     """
-    lost = _submit(placement.executor, chunks, collect)
+    lost = _submit(placement.executor, chunks, collect, placement.in_process)
     if not (lost and placement.owned and isinstance(placement.executor, cf.ProcessPoolExecutor)):
         for chunk in lost:
             collect(chunk, None, "BrokenProcessPool: a worker process died during this run")
@@ -193,21 +194,47 @@ def _run_pooled(placement: Any, chunks: Sequence[Chunk], collect: Any) -> Any:
     return placement
 
 
-def _submit(executor: Any, chunks: Sequence[Chunk], collect: Any) -> list[Chunk]:
-    """Run ``chunks`` on ``executor``, collecting each outcome; the chunks a broken pool lost."""
-    futures = {executor.submit(run_chunk, chunk): chunk for chunk in chunks}
-    lost = []
-    for future in cf.as_completed(futures):
-        try:
-            outcome = future.result()
-        except cf.process.BrokenProcessPool:
-            lost.append(futures[future])
-        except Exception as exc:
-            text = " ".join(str(exc).split())
-            collect(futures[future], None, f"{type(exc).__name__}: {text}")
-        else:
-            collect(futures[future], outcome)
+def _submit(executor: Any, chunks: Sequence[Chunk], collect: Any,
+            in_process: bool = False) -> list[Chunk]:
+    """Run ``chunks`` on ``executor``, collecting each outcome; the chunks a broken pool lost.
+
+    Ctrl-C reaches this thread only. With ``in_process`` (threads of this process) it
+    sets a stop event, so that the chunks running in the other threads start no further
+    run; worker processes get Ctrl-C themselves.
+    """
+    stop = threading.Event()
+    futures = {(executor.submit(run_chunk, chunk, stop) if in_process
+                else executor.submit(run_chunk, chunk)): chunk for chunk in chunks}
+    lost: list[Chunk] = []
+    pending = set(futures)
+    try:
+        for future in cf.as_completed(futures):
+            pending.discard(future)
+            try:
+                outcome = future.result()
+            except cf.process.BrokenProcessPool:
+                lost.append(futures[future])
+            except Exception as exc:
+                text = " ".join(str(exc).split())
+                collect(futures[future], None, f"{type(exc).__name__}: {text}")
+            else:
+                collect(futures[future], outcome)
+    except KeyboardInterrupt:
+        if in_process:  # the running chunks start no further run; keep what they finished
+            stop.set()
+            for future in pending:
+                if not future.cancel() and (outcome := _finished(future)) is not None:
+                    collect(futures[future], outcome)
+        raise
     return lost
+
+
+def _finished(future: cf.Future) -> Any:
+    """The outcome of a chunk that was running when the sweep was interrupted, or ``None``."""
+    try:
+        return future.result()
+    except Exception:
+        return None
 
 
 def _shutdown(placement: Any) -> None:

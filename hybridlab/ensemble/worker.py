@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -125,11 +126,14 @@ def _observe(result: Any, observer: Observer | None, observables: Sequence[Obser
     return values, problems
 
 
-def run_chunk(chunk: Chunk) -> list[tuple[int, tuple[Any, ...], Any]]:
+def run_chunk(chunk: Chunk, stop: threading.Event | None = None
+              ) -> list[tuple[int, tuple[Any, ...], Any]]:
     """Simulate every run of ``chunk``; a failing run becomes a row, never an exception.
 
     Returns ``(index, row, result_or_None)`` triples; ``row`` is
-    ``(status, t_final, jumps, *counts, *observables, error)``.
+    ``(status, t_final, jumps, *counts, *observables, error)``. Once ``stop``
+    is set (a sweep interrupted while this chunk runs in a thread, which Ctrl-C
+    does not reach), no further run starts and the runs done so far are returned.
 
     Examples
     --------
@@ -153,6 +157,8 @@ def run_chunk(chunk: Chunk) -> list[tuple[int, tuple[Any, ...], Any]]:
     observer = Observer(compiled, texts) if texts else None
     out: list[tuple[int, tuple[Any, ...], Any]] = []
     for index, run in chunk.runs:
+        if stop is not None and stop.is_set():
+            break
         try:
             result = simulate(compiled, **run, **chunk.options)
         except Exception as exc:
