@@ -27,6 +27,7 @@ import numba
 import numpy as np
 
 from hybridlab.simulation.compiled.integrate import RK45
+from hybridlab.simulation.compiled.layout import BoxWorkspace
 from hybridlab.simulation.compiled.locate import GUARD, INVARIANT, SWITCH
 from hybridlab.simulation.compiled.opcodes import OP_GUARD_BOX, OP_INV_BOX, OP_SWITCH_BOX
 from hybridlab.simulation.compiled.signatures import borrowing, ptr
@@ -35,13 +36,12 @@ from hybridlab.symbolic.interval_arithmetic import TINY, WIDEN
 __all__ = ["state_box", "quiet_step", "box_workspace"]
 
 
-
 @numba.njit(cache=True)
 def box_workspace(n, n_cond, n_sig):
     """Buffers for :func:`quiet_step`: states ``[lo | hi]``, time, and the bounds of a
     guard's rows, of the invariants and of the switching functions."""
-    return (np.empty(2 * n), np.empty(2), np.empty(2 * max(n_cond, 1)),
-            np.empty(2 * max(n_cond, 1)), np.empty(2 * max(n_sig, 1)))
+    return BoxWorkspace(np.empty(2 * n), np.empty(2), np.empty(2 * max(n_cond, 1)),
+                        np.empty(2 * max(n_cond, 1)), np.empty(2 * max(n_sig, 1)))
 
 
 @borrowing
@@ -100,18 +100,17 @@ def quiet_step(box_model, md, p, sig, step, t0, t1, tol, armed, bx, guard_group,
     monitors are bounded one by one and the first that cannot be proven ends
     the attempt.
     """
-    fc, _, mk, mref, _, mlen, _ = md
-    method, coef, _, h, y_old, act = step
-    box, tb, gb, ib, sb = bx
-    m = fc[4]
-    sg = fc[1]
+    mk, mref, mlen = md.kind, md.ref, md.length
+    box, tb, gb, ib, sb = bx.states, bx.time, bx.guard, bx.invariants, bx.switches
+    m = md.context.n_switches
+    sg = md.context.switch_group
     for r in range(mk.size):
         # a sliding exit has no enclosure
         if mk[r] != GUARD and mk[r] != INVARIANT and mk[r] != SWITCH:
             return False
         if mk[r] == SWITCH and sig[mref[r]] == 0.0:
             return False
-    state_box(method, coef, h, y_old, act, box)
+    state_box(step.method, step.coef, step.h, step.y_old, step.active, box)
     tb[0] = t0 - (WIDEN * abs(t0) + TINY)
     tb[1] = t1 + (WIDEN * abs(t1) + TINY)
     invariants = switches = False

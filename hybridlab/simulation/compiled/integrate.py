@@ -118,11 +118,11 @@ def initial_step(model, fc, t0, y0, f0, t_bound, max_step, order, rtol, atol, p,
 def _stages(model, method, fc, t, y, f, h, p, sig, K, y_new, f_new, tmp):
     """One Runge-Kutta step (``rk_step``): stages into ``K``, result into y_new, f_new.
 
-    Only the states of the flow context's active set ``fc[9]`` are combined:
+    Only the states of the flow context's active set ``fc.active`` are combined:
     the others have a flow that is identically zero in this mode, so their
     stages are exact zeros and their values stay as they are.
     """
-    act = fc[9]
+    act = fc.active
     if method == RK45:
         a_start, a_col, a_val, b_col, b_val, C = _RK_AS, _RK_AC, _RK_AV, _RK_BC, _RK_BV, _RK_C
         ns = _RK_A.shape[0]
@@ -133,7 +133,7 @@ def _stages(model, method, fc, t, y, f, h, p, sig, K, y_new, f_new, tmp):
     for i in range(n):  # element loops: a slice assignment may allocate (see borrowing)
         K[0, i] = f[i]
         tmp[i] = y[i]
-    fg, W, plain = fc[0], fc[6], fc[5].size == 0
+    fg, W, plain = fc.flow_group, fc.workspace, fc.sliding.size == 0
     for s in range(1, ns):
         for a in range(act.size):
             i = act[a]
@@ -208,7 +208,7 @@ def rk_step(model, method, fc, t, y, f, t_bound, h_abs_in, max_step, rtol, atol,
         h_abs = h_abs_in
     rejected = False
     n = y.size
-    act = fc[9]
+    act = fc.active
     while True:
         if h_abs < min_step:
             return False, t, h_abs, 0.0
@@ -242,10 +242,10 @@ def rk_step(model, method, fc, t, y, f, t_bound, h_abs_in, max_step, rtol, atol,
 def dense_coefficients(model, method, fc, t_old, h, y_old, y, f, p, sig, K, tmp, coef):
     """Interpolant of the last step into ``coef`` (``Q.T`` for RK45, ``F`` for DOP853).
 
-    Only the columns of the active states ``fc[9]`` are written; the caller
+    Only the columns of the active states ``fc.active`` are written; the caller
     zeroes ``coef`` when the active set changes, so the others stay zero.
     """
-    act = fc[9]
+    act = fc.active
     if method == RK45:
         for j in range(_RK_PS.size - 1):
             for a in range(act.size):
@@ -258,7 +258,7 @@ def dense_coefficients(model, method, fc, t_old, h, y_old, y, f, p, sig, K, tmp,
     n = y.size
     for i in range(n):
         tmp[i] = y_old[i]
-    fg, W, plain = fc[0], fc[6], fc[5].size == 0
+    fg, W, plain = fc.flow_group, fc.workspace, fc.sliding.size == 0
     for s in range(_DP_N + 1, K.shape[0]):
         for a in range(act.size):
             i = act[a]

@@ -39,7 +39,14 @@ from hybridlab.simulation.compiled.integrate import (
     initial_step,
     rk_step,
 )
-from hybridlab.simulation.compiled.layout import KernelCheckpoint, KernelResult
+from hybridlab.simulation.compiled.layout import (
+    DenseStep,
+    FlowContext,
+    KernelCheckpoint,
+    KernelResult,
+    LocateWorkspace,
+    Monitors,
+)
 from hybridlab.simulation.compiled.locate import (
     EXIT,
     GUARD,
@@ -159,8 +166,9 @@ def _fc(tables, m, slm, W):
     ns = tables.n_switches[m]
     sl = active_indices(slm, ns)
     act = tables.active_list[tables.active_ptr[m]:tables.active_ptr[m + 1]]
-    return (tables.flow_group[m], tables.switch_group[m], tables.grad_group[m],
-            tables.dsigma_group[m], ns, sl, W, tables.slide_group[m], tables.switch_free[m], act)
+    return FlowContext(tables.flow_group[m], tables.switch_group[m], tables.grad_group[m],
+                       tables.dsigma_group[m], ns, sl, W, tables.slide_group[m],
+                       tables.switch_free[m], act)
 
 
 @numba.njit(cache=True)
@@ -236,8 +244,8 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
     dummy = W
     eqv = np.empty(ns)
     n_cmax = max(np.max(n_cond), 1)
-    ws = (np.empty(n), np.empty(n), np.empty(2 * n_cmax), np.empty(n_cmax), np.empty(2 * ns),
-          np.empty(ns), np.empty(ns))
+    ws = LocateWorkspace(np.empty(n), np.empty(n), np.empty(2 * n_cmax), np.empty(n_cmax),
+                         np.empty(2 * ns), np.empty(ns), np.empty(ns))
     bx = box_workspace(n, n_cmax, ns)
     gv = np.empty(max(np.max(tr_monitored[n_tr:]) if n_tr else 1, 1))
     gd = np.empty(gv.size)
@@ -497,10 +505,10 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
                             break
                         row = mstart[hit_rows[r]]
                         model(OP_COND, cgs[m], t, ptr(x), ptr(p), ptr(sig), ptr(dummy),
-                              ptr(ws[2]))
+                              ptr(ws.cond))
                         model(OP_COND_LIE, cgs[m], t, ptr(x), ptr(p), ptr(sig), ptr(fcur),
-                              ptr(ws[3]))
-                        if not (ws[3][row] >= 0 and ws[2][row] >= -event_atol):
+                              ptr(ws.cond_lie))
+                        if not (ws.cond_lie[row] >= 0 and ws.cond[row] >= -event_atol):
                             stop = True
                             break
                 if stop:
@@ -544,7 +552,7 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
             for k in range(n_sw[m]):
                 mk[r], mref[r], mstart[r], mlen[r] = (EXIT if slm[k] else SWITCH), k, 0, 1
                 r += 1
-            md = (fc, cg, mk, mref, mstart, mlen, n_cond[m])
+            md = Monitors(fc, cg, mk, mref, mstart, mlen, n_cond[m])
             bounded = use_bounds != 0 and M > 0
             SG = _grow(SG, nsg)
             SG[nsg, 0], SG[nsg, 1], SG[nsg, 2], SG[nsg, 4] = m, j, npt, nst
@@ -559,8 +567,8 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
                 floors[r] = 0.0
             if M > 0:
                 phi0, dphi0 = phi0_b[:M], dphi0_b[:M]
-                flow_eq(model, fc, t, x, p, sig, ws[1], ws[6])
-                monitors_at(model, md, p, sig, ws, t, x, ws[1], phi0, dphi0, 0)
+                flow_eq(model, fc, t, x, p, sig, ws.dx, ws.eq)
+                monitors_at(model, md, p, sig, ws, t, x, ws.dx, phi0, dphi0, 0)
                 for r in range(M):
                     armed[r] = phi0[r, 0] > event_atol
                     band = ENTRY_BAND * xtol_at(event_tol, t) * abs(dphi0[r, 0]) + event_atol
@@ -573,9 +581,9 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
                     code = HANDOFF
                 if code == HANDOFF:
                     break
-            if M > 0 and fc[5].size == 0:
+            if M > 0 and fc.sliding.size == 0:
                 for i in range(n):  # without sliding, flow_eq gave the flow itself
-                    fcur[i] = ws[1][i]
+                    fcur[i] = ws.dx[i]
             else:
                 rhs(model, fc, t, x, p, sig, fcur)
             for i in range(n):
@@ -591,7 +599,7 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
             hit_n = 0
             hit_rows = table[4, :M]
             coef[:] = 0.0  # the columns of states outside the active set stay zero
-            act = fc[9]
+            act = fc.active
             while True:
                 ok, t_new, h_abs, h = rk_step(model, method, fc, t, x, fcur, t_stop, h_abs,
                                               max_step, rtol, atol, p, sig, K, y_new, f_new,
@@ -604,7 +612,7 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
                 h_last = t_new - t_old
                 dense_coefficients(model, method, fc, t_old, h, x, y_new, f_new, p, sig, K,
                                    tmp, coef)
-                step = (method, coef, t_old, h, x, act)
+                step = DenseStep(method, coef, t_old, h, x, act)
                 if bounded and quiet_step(box, md, p, sig, step, t_old, t_new, event_atol,
                                           armed, bx, tr_guard, inv_box[m]):
                     nfire = 0

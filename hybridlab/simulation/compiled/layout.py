@@ -29,7 +29,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["ModelTables", "KernelResult", "KernelCheckpoint"]
+__all__ = ["BoxWorkspace", "DenseStep", "FlowContext", "KernelCheckpoint", "KernelResult",
+           "LocateWorkspace", "ModelTables", "Monitors", "Probe"]
 
 
 class ModelTables(NamedTuple):
@@ -129,3 +130,149 @@ class KernelResult(NamedTuple):
     jumps: int
     last_step: float
     checkpoint: KernelCheckpoint
+
+
+# ----- the kernel's own records (built inside the kernel, passed between its stages) ----------
+class FlowContext(NamedTuple):
+    """How the kernel evaluates the current mode's flow (:mod:`.sliding`).
+
+    The mode's function groups (flow, switching functions, their gradient, the flow's
+    sigma-Jacobian, the fused sliding parts), its number of switches, the indices of
+    the switches it slides on, the workspace, whether its switching functions are free of
+    the signs, and the states it integrates.
+
+    Examples
+    --------
+    >>> FlowContext._fields[4:6]
+    ('n_switches', 'sliding')
+    """
+
+    flow_group: int
+    switch_group: int
+    grad_group: int
+    dsigma_group: int
+    n_switches: int
+    sliding: np.ndarray
+    workspace: np.ndarray
+    slide_group: int
+    switch_free: int
+    active: np.ndarray
+
+
+class Monitors(NamedTuple):
+    """The monitors of a flow segment (:mod:`.locate`): one row per guard, invariant,
+    switching function or sliding exit, with its kind, its reference (transition,
+    invariant or switch), its first condition row and number of rows.
+
+    Examples
+    --------
+    >>> Monitors._fields
+    ('context', 'cond_group', 'kind', 'ref', 'start', 'length', 'n_conditions')
+    """
+
+    context: FlowContext
+    cond_group: int
+    kind: np.ndarray
+    ref: np.ndarray
+    start: np.ndarray
+    length: np.ndarray
+    n_conditions: int
+
+
+class LocateWorkspace(NamedTuple):
+    """Buffers of event location: a state and its derivative, condition values and Lie
+    derivatives, switch values and Lie derivatives, equivalent signs.
+
+    Examples
+    --------
+    >>> LocateWorkspace._fields[:2]
+    ('x', 'dx')
+    """
+
+    x: np.ndarray
+    dx: np.ndarray
+    cond: np.ndarray
+    cond_lie: np.ndarray
+    switch: np.ndarray
+    switch_lie: np.ndarray
+    eq: np.ndarray
+
+
+class DenseStep(NamedTuple):
+    """A step's dense output (:func:`.integrate.dense_eval`): the method, its coefficients,
+    the step's start time, size and state, and the states it integrates.
+
+    Examples
+    --------
+    >>> DenseStep._fields
+    ('method', 'coef', 't_old', 'h', 'y_old', 'active')
+    """
+
+    method: int
+    coef: np.ndarray
+    t_old: float
+    h: float
+    y_old: np.ndarray
+    active: np.ndarray
+
+
+class BoxWorkspace(NamedTuple):
+    """Buffers of a quiet-step proof (:mod:`.bounds`): the states' box ``[lo | hi]``, the
+    time interval, and the bounds of a guard's rows, of the invariants and of the
+    switching functions.
+
+    Examples
+    --------
+    >>> BoxWorkspace._fields
+    ('states', 'time', 'guard', 'invariants', 'switches')
+    """
+
+    states: np.ndarray
+    time: np.ndarray
+    guard: np.ndarray
+    invariants: np.ndarray
+    switches: np.ndarray
+
+
+class Probe(NamedTuple):
+    """One monitor on one step, as the root finders evaluate it (:func:`.locate.probe`):
+    numbers and pointers only, no array, so an evaluation binds nothing that numba
+    counts references of.
+
+    Examples
+    --------
+    >>> len(Probe._fields), Probe._fields[:4]
+    (31, ('kind', 'ref', 'start', 'length'))
+    """
+
+    kind: int
+    ref: int
+    start: int
+    length: int
+    cond_group: int
+    switch_group: int
+    n_conditions: int
+    slide_group: int
+    n_switches: int
+    method: int
+    t_old: float
+    h: float
+    n: int
+    n_coef: int
+    n_active: int
+    n_sliding: int
+    n_work: int
+    n_params: int
+    n_signs: int
+    position: int
+    x: object
+    p: object
+    sig: object
+    cond: object
+    switch: object
+    eq: object
+    work: object
+    coef: object
+    y_old: object
+    active: object
+    sliding: object

@@ -18,6 +18,7 @@ import numba
 import numpy as np
 
 from hybridlab.simulation.compiled.integrate import RK45, dense_eval_at
+from hybridlab.simulation.compiled.layout import Probe
 from hybridlab.simulation.compiled.opcodes import (
     OP_COND,
     OP_COND_BOTH,
@@ -59,13 +60,14 @@ def monitors_at(model, md, p, sig, ws, t, x, f, phi, dphi, col):
     ``f`` is the state's time derivative the slopes are taken along: the
     flow at the start of a segment, the derivative of the dense output at
     the samples of a step (:func:`_batch`). While switches slide, the
-    equivalent signs must be in ``ws[6]`` already. The slope of a sliding
+    equivalent signs must be in ``ws.eq`` already. The slope of a sliding
     exit (``1 - |sigma_eq|``) is left at zero here; :func:`_batch` replaces
     it by finite differences over the batch, as the reference engine does.
     """
-    fc, cg, mk, mref, mstart, mlen, nc = md
-    xs, _, cv, cd, sv, sd, eqv = ws
-    sg, m = fc[1], fc[4]
+    cg, mk, mref, mstart, mlen, nc = (md.cond_group, md.kind, md.ref, md.start, md.length,
+                                      md.n_conditions)
+    cv, sv, eqv = ws.cond, ws.switch, ws.eq
+    sg, m, sl = md.context.switch_group, md.context.n_switches, md.context.sliding
     # values and Lie derivatives in one call each: cv = [g | dg/dt], sv = [s | ds/dt]
     if cg >= 0:
         model(OP_COND_BOTH, cg, t, ptr(x), ptr(p), ptr(sig), ptr(f), ptr(cv))
@@ -73,7 +75,7 @@ def monitors_at(model, md, p, sig, ws, t, x, f, phi, dphi, col):
         model(OP_SWITCH_BOTH, sg, t, ptr(x), ptr(p), ptr(sig), ptr(f), ptr(sv))
     for r in range(mk.size):
         phi[r, col], dphi[r, col] = _column(mk[r], mref[r], mstart[r], mlen[r], nc, m,
-                                            _position(fc[5], mref[r]), ptr(cv), ptr(sv),
+                                            _position(sl, mref[r]), ptr(cv), ptr(sv),
                                             ptr(sig), ptr(eqv))
 
 
@@ -105,18 +107,17 @@ def probe(md, p, sig, ws, step, r):
     The arrays it points into (the step's coefficients and start, the
     workspace) outlive every use of the probe.
     """
-    fc, cg, mk, mref, mstart, mlen, nc = md
-    xs, _, cv, _, sv, _, eqv = ws
-    method, coef, t_old, h, y_old, act = step
-    sl, W = fc[5], fc[6]
+    fc, coef, y_old, act = md.context, step.coef, step.y_old, step.active
+    sl, W, ref = fc.sliding, fc.workspace, md.ref[r]
     pos = 0
     for a in range(sl.size):
-        if sl[a] == mref[r]:
+        if sl[a] == ref:
             pos = a
-    return (mk[r], mref[r], mstart[r], mlen[r], cg, fc[1], nc, fc[7], fc[4], method, t_old, h,
-            y_old.size, coef.shape[0], act.size, sl.size, W.size, p.size, sig.size, pos,
-            ptr(xs), ptr(p), ptr(sig), ptr(cv), ptr(sv), ptr(eqv), ptr(W), ptr(coef),
-            ptr(y_old), ptr(act), ptr(sl))
+    return Probe(md.kind[r], ref, md.start[r], md.length[r], md.cond_group, fc.switch_group,
+                 md.n_conditions, fc.slide_group, fc.n_switches, step.method, step.t_old,
+                 step.h, y_old.size, coef.shape[0], act.size, sl.size, W.size, p.size, sig.size,
+                 pos, ptr(ws.x), ptr(p), ptr(sig), ptr(ws.cond), ptr(ws.switch), ptr(ws.eq),
+                 ptr(W), ptr(coef), ptr(y_old), ptr(act), ptr(sl))
 
 
 @counted
@@ -127,27 +128,30 @@ def _exit_value(model, pr, t):
     Reference counted (``numba.carray`` needs it), and said so explicitly
     (:data:`~.signatures.counted`): the root finders that call it are borrowing.
     """
-    (_, _, _, _, _, _, _, pg, m, _, _, _, n, _, nact, nsl, nw, npar, nsig, pos, xs, p, sig, _,
-     _, eqv, W, _, _, act) = pr[:30]
     # arrays over the same memory without a reference count (numba.carray)
-    equivalent_signs(model, pg, m, numba.carray(pr[30], nsl), numba.carray(act, nact),
-                     numba.carray(W, nw), t, numba.carray(xs, n), numba.carray(p, npar),
-                     numba.carray(sig, nsig), numba.carray(eqv, nsig))
-    return 1.0 - abs(eqv[pos])
+    eqv = numba.carray(pr.eq, pr.n_signs)
+    equivalent_signs(model, pr.slide_group, pr.n_switches, numba.carray(pr.sliding, pr.n_sliding),
+                     numba.carray(pr.active, pr.n_active), numba.carray(pr.work, pr.n_work), t,
+                     numba.carray(pr.x, pr.n), numba.carray(pr.p, pr.n_params),
+                     numba.carray(pr.sig, pr.n_signs), eqv)
+    return 1.0 - abs(eqv[pr.position])
 
 
 @numba.njit(cache=True, inline="always")
 def probe_value(model, pr, t):
     """The probed monitor's value at time ``t`` of the step (the root finders' inner loop)."""
-    (kind, ref, start, length, cg, sg, nc, pg, m, method, t_old, h, n, nco, nact, nsl, nw, npar,
-     nsig, pos, xs, p, sig, cv, sv, eqv, W, coef, y_old, act) = pr[:30]
-    dense_eval_at(method, coef, t_old, h, y_old, act, n, nco, nact, t, xs)
+    kind, ref, start, length = pr.kind, pr.ref, pr.start, pr.length
+    xs, p, sig, W = pr.x, pr.p, pr.sig, pr.work
+    dense_eval_at(pr.method, pr.coef, pr.t_old, pr.h, pr.y_old, pr.active, pr.n, pr.n_coef,
+                  pr.n_active, t, xs)
     if kind == SWITCH:
-        model(OP_SWITCH, sg, t, xs, p, sig, W, sv)
+        sv = pr.switch
+        model(OP_SWITCH, pr.switch_group, t, xs, p, sig, W, sv)
         return sig[ref] * sv[ref]
     if kind == EXIT:
         return _exit_value(model, pr, t)
-    model(OP_COND, cg, t, xs, p, sig, W, cv)
+    cv = pr.cond
+    model(OP_COND, pr.cond_group, t, xs, p, sig, W, cv)
     if kind == INVARIANT:
         return cv[start]
     best = cv[start]
@@ -173,10 +177,14 @@ def _batch(model, md, p, sig, ws, step, times, T, PHI, DPHI, n0):
     pair per point that numba cannot prune. It computes what
     :func:`monitors_at` does, along the dense output's own derivative.
     """
-    method, coef, t_old, h, y_old, act = step
-    fc, cg, mk, mref, mstart, mlen, nc = md
-    xs, xd, cv, _, sv, _, eqv = ws
-    sg, m, pg, sl, W = fc[1], fc[4], fc[7], fc[5], fc[6]
+    method, coef, t_old, h, y_old, act = (step.method, step.coef, step.t_old, step.h,
+                                          step.y_old, step.active)
+    cg, mk, mref, mstart, mlen, nc = (md.cond_group, md.kind, md.ref, md.start, md.length,
+                                      md.n_conditions)
+    xs, xd, cv, sv, eqv = ws.x, ws.dx, ws.cond, ws.switch, ws.eq
+    fc = md.context
+    sg, m, pg, sl, W = (fc.switch_group, fc.n_switches, fc.slide_group, fc.sliding,
+                        fc.workspace)
     n = y_old.size
     ns = sl.size
     nm = mk.size
@@ -269,7 +277,7 @@ def _sgn(v):
 @numba.njit(cache=True)
 def sample_step(model, md, p, sig, ws, step, t0, t1, samples, max_refine, tol):
     """Samples of every monitor on ``[t0, t1]``, refined until resolved (see location.py)."""
-    M = md[2].size
+    M = md.kind.size
     cap = 4 * (samples + 1)
     T = np.empty(cap)
     PHI = np.empty((M, cap))

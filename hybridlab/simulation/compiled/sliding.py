@@ -1,6 +1,6 @@
 """Filippov sliding in numba: a port of ``simulation/sliding.py`` and the engine's sign logic.
 
-A *flow context* ``fc = (fg, sg, gg, dg, m, sl, W, pg, free, act)`` describes the
+A *flow context* ``fc`` (:class:`~.layout.FlowContext`) describes the
 current flow: the model groups of the flow, the switching functions, their
 state gradient and the flow's sigma-Jacobian, the mode's number of switches
 ``m``, the sliding switches ``sl`` (an index array, usually empty), a
@@ -35,6 +35,7 @@ import math
 import numba
 import numpy as np
 
+from hybridlab.simulation.compiled.layout import FlowContext
 from hybridlab.simulation.compiled.opcodes import (
     OP_FLOW,
     OP_SLIDE_PARTS,
@@ -142,11 +143,12 @@ def equivalent_signs(model, fg_p, m, sl, act, W, t, x, p, sig, eq):
 
 @numba.njit(cache=True, inline="always")
 def equivalent(model, fc, t, x, p, sig, eq):
-    """Equivalent signs of the sliding switches ``fc[5]`` at ``(t, x)`` into ``eq``.
+    """Equivalent signs of the sliding switches ``fc.sliding`` at ``(t, x)`` into ``eq``.
 
     Leaves ``[f0 | ds/dt | grad s | F_sigma]`` at ``sigma_S = 0`` in the workspace.
     """
-    return equivalent_signs(model, fc[7], fc[4], fc[5], fc[9], fc[6], t, x, p, sig, eq)
+    return equivalent_signs(model, fc.slide_group, fc.n_switches, fc.sliding, fc.active,
+                            fc.workspace, t, x, p, sig, eq)
 
 
 @numba.njit(cache=True, inline="always")
@@ -173,28 +175,29 @@ def flow_sliding(model, pg, m, sl, act, W, t, x, p, sig, out, eq):
 
 @borrowing
 def _flow_eq_sliding(model, fc, t, x, p, sig, out, eq):
-    return flow_sliding(model, fc[7], fc[4], fc[5], fc[9], fc[6], t, x, p, sig, out, eq)
+    return flow_sliding(model, fc.slide_group, fc.n_switches, fc.sliding, fc.active,
+                        fc.workspace, t, x, p, sig, out, eq)
 
 
 @numba.njit(cache=True, inline="always")
 def flow_eq(model, fc, t, x, p, sig, out, eq):
     """The flow with the equivalent signs (``eq`` receives them); False if singular."""
-    if fc[5].size == 0:
-        model(OP_FLOW, fc[0], t, ptr(x), ptr(p), ptr(sig), ptr(fc[6]), ptr(out))
+    if fc.sliding.size == 0:
+        model(OP_FLOW, fc.flow_group, t, ptr(x), ptr(p), ptr(sig), ptr(fc.workspace), ptr(out))
         return True
     return _flow_eq_sliding(model, fc, t, x, p, sig, out, eq)
 
 
 @numba.njit(cache=True, inline="always")
 def _rhs_sliding(model, fc, t, x, p, sig, out):
-    m, sl, W, act = fc[4], fc[5], fc[6], fc[9]
+    m, sl, W, act = fc.n_switches, fc.sliding, fc.workspace, fc.active
     n = x.size
     o_sig, _, o_lie, o_grad, o_a, o_b, o_sol, o_flag, o_parts, _ = _layout(n, sig.size)
-    flow_sliding(model, fc[7], m, sl, act, W, t, x, p, sig, out, W[o_sol:o_sol + sig.size])
+    flow_sliding(model, fc.slide_group, m, sl, act, W, t, x, p, sig, out, W[o_sol:o_sol + sig.size])
     # remove the rounding-level drift off the sliding surfaces (as the reference does);
     # the gradients vanish outside the active set (it holds every state a switch reads)
     k = sl.size
-    if fc[8]:
+    if fc.switch_free:
         # switching functions free of sigma: gradient and ds/dt as at sigma_S = 0
         og = o_parts + n + m
         for a in range(k):
@@ -206,9 +209,9 @@ def _rhs_sliding(model, fc, t, x, p, sig, out):
                 acc += W[og + sl[a] * n + i] * (out[i] - W[o_parts + i])
             W[o_lie + sl[a]] = acc
     else:
-        model(OP_SWITCH_GRAD, fc[2], t, ptr(x), ptr(p), ptr_at(W, o_sig), ptr(W),
+        model(OP_SWITCH_GRAD, fc.grad_group, t, ptr(x), ptr(p), ptr_at(W, o_sig), ptr(W),
               ptr_at(W, o_grad))
-        model(OP_SWITCH_LIE, fc[1], t, ptr(x), ptr(p), ptr_at(W, o_sig), ptr(out),
+        model(OP_SWITCH_LIE, fc.switch_group, t, ptr(x), ptr(p), ptr_at(W, o_sig), ptr(out),
               ptr_at(W, o_lie))
     for a in range(k):
         for c in range(k):
@@ -232,16 +235,16 @@ def _rhs_sliding(model, fc, t, x, p, sig, out):
 @numba.njit(cache=True, inline="always")
 def rhs(model, fc, t, x, p, sig, out):
     """The integrator's right-hand side: the flow, projected onto the sliding surfaces."""
-    if fc[5].size == 0:
-        model(OP_FLOW, fc[0], t, ptr(x), ptr(p), ptr(sig), ptr(fc[6]), ptr(out))
+    if fc.sliding.size == 0:
+        model(OP_FLOW, fc.flow_group, t, ptr(x), ptr(p), ptr(sig), ptr(fc.workspace), ptr(out))
     else:
         _rhs_sliding(model, fc, t, x, p, sig, out)
 
 
 @borrowing
 def _sdot(model, fc, t, x, p, sigma, k, f, lie):
-    fg, sg = fc[0], fc[1]
-    model(OP_FLOW, fg, t, ptr(x), ptr(p), ptr(sigma), ptr(fc[6]), ptr(f))
+    fg, sg = fc.flow_group, fc.switch_group
+    model(OP_FLOW, fg, t, ptr(x), ptr(p), ptr(sigma), ptr(fc.workspace), ptr(f))
     model(OP_SWITCH_LIE, sg, t, ptr(x), ptr(p), ptr(sigma), ptr(f), ptr(lie))
     return lie[k]
 
@@ -287,7 +290,8 @@ def active_indices(slm, m):
 @numba.njit(cache=True)
 def resolve(model, fc, affine, t, x, p, sig, at_surface, forced, forced_value, slm):
     """``resolve_switches``: new signs into ``sig``, the sliding set into ``slm``; a status."""
-    fg, sg, gg, dg, m, W = fc[0], fc[1], fc[2], fc[3], fc[4], fc[6]
+    fg, sg, gg, dg, m, W = (fc.flow_group, fc.switch_group, fc.grad_group, fc.dsigma_group,
+                             fc.n_switches, fc.workspace)
     n = x.size
     f = np.empty(n)
     lie = np.empty(sig.size)
@@ -317,7 +321,7 @@ def resolve(model, fc, affine, t, x, p, sig, at_surface, forced, forced_value, s
             return NOT_AFFINE
         for a in range(idx.size):
             sig[idx[a]] = 0.0
-        sub = (fg, sg, gg, dg, m, idx, W, fc[7], fc[8], fc[9])
+        sub = FlowContext(fg, sg, gg, dg, m, idx, W, fc.slide_group, fc.switch_free, fc.active)
         if not equivalent(model, sub, t, x, p, sig, eq):
             return SINGULAR
         outside = False
@@ -345,7 +349,7 @@ def resolve(model, fc, affine, t, x, p, sig, at_surface, forced, forced_value, s
 @numba.njit(cache=True)
 def enter_mode(model, fc, affine, t, x, p, sig, slm, event_atol):
     """Fresh signs for a mode's switches at ``(t, x)`` (``fc`` without sliding)."""
-    m = fc[4]
+    m = fc.n_switches
     slm[:] = False
     if m == 0:
         return OK
@@ -353,7 +357,7 @@ def enter_mode(model, fc, affine, t, x, p, sig, slm, event_atol):
     at_surface = np.zeros(sig.size, dtype=np.bool_)
     forced = np.zeros(sig.size, dtype=np.bool_)
     sig[:] = 1.0
-    model(OP_SWITCH, fc[1], t, ptr(x), ptr(p), ptr(sig), ptr(fc[6]), ptr(s))
+    model(OP_SWITCH, fc.switch_group, t, ptr(x), ptr(p), ptr(sig), ptr(fc.workspace), ptr(s))
     for k in range(m):
         at_surface[k] = abs(s[k]) <= event_atol
         sig[k] = 1.0 if s[k] >= 0 else -1.0
@@ -369,8 +373,8 @@ def _sign(v):
 def update_switches(model, fc, affine, t, x, p, sig, slm, switches, exits, kinds):
     """``_Run.update_switches`` without the logging: ``kinds[k]`` 1 crossing, 2 slide start,
     3 slide end for every switch hit; ``fc`` carries the sliding set before the event."""
-    m = fc[4]
-    sl = fc[5]
+    m = fc.n_switches
+    sl = fc.sliding
     old = sig.copy()
     if sl.size:
         eq = np.empty(sig.size)
