@@ -202,6 +202,45 @@ def test_a_block_held_by_friction_follows_the_sliding_flow_not_a_free_sign():
         assert y_hi - y_lo < (exact(1.0, t_lo) - exact(0.5, t_hi)) + 0.02  # and tight
 
 
+SLOWING_BLOCK = """
+name = "slowing_block"
+states = { x = 0.0, v = 0.0 }
+[modes.m]
+flow = { x = "v", v = "0.5 - 2*sign(v)" }
+[initial]
+mode = "m"
+"""
+
+
+def _slowing_block(v0: float, t: float) -> tuple[float, float]:
+    """``(x, v)`` of the slowing block from ``(0, v0)``: it decelerates at 1.5 (moving
+    forwards) or accelerates at 2.5 (backwards) until it rests, then friction holds it."""
+    a = -1.5 if v0 > 0 else 2.5
+    rest = -v0 / a if v0 else 0.0
+    s = min(t, rest)
+    return v0 * s + 0.5 * a * s * s, v0 + a * s
+
+
+def test_a_moving_set_comes_to_rest_on_the_surface_with_the_sign_free():
+    # v' = 0.5 - 2 sign(v): friction beats the push, so from v in [-0.1, 0.1] every state
+    # comes to rest by t = 0.1 / 1.5 and is held there. With the sign free (no phases) the
+    # set straddles v = 0; each side approaches the surface at least at 1.5 and 2.5, the
+    # bounds carried from step to step reach 0 together, and the set is put on the surface,
+    # where the sliding rule holds it (before, v stayed in [-0.1, 0.1] and x drifted ±0.11).
+    r = reach(hybridlab.loads_model(SLOWING_BLOCK), initial={"v": (-0.1, 0.1)}, t_end=1.0,
+              step=0.01, sign_phases=False)
+    assert r.complete
+    rest = [s.bounds() for s in r.sets if s.t[0] >= 0.1]
+    assert rest and max(abs(v) for b in rest for v in b[1]) < 1e-12
+    assert r.bounds["x"][0] > -0.01 and r.bounds["x"][1] < 0.01
+    for s in r.sets:  # trajectories from the initial interval stay inside
+        (x_lo, x_hi), (v_lo, v_hi) = s.bounds()
+        for t in (max(s.t[0], 0.0), min(s.t[1], 1.0)):
+            for v0 in np.linspace(-0.1, 0.1, 21):
+                x, v = _slowing_block(float(v0), t)
+                assert x_lo - 1e-12 <= x <= x_hi + 1e-12 and v_lo - 1e-12 <= v <= v_hi + 1e-12
+
+
 CLOCKED = """
 name = "clocked"
 states = { c = 0.0, y = 1.0 }

@@ -482,11 +482,13 @@ class _Analysis:
             t0 = start_lo
             t1 = (now + r) if exact_time else item.t_hi + rel + r
             reaching = H  # before the cuts: does the flow reach a surface?
+            stepped = P_next
             H = _within(stepper.reduce(H, self.options.order), mode.invariants)
             P_next = _within(stepper.reduce(P_next, self.options.order), mode.invariants)
             if item.phase:
                 H = self._in_phase(item, stepper, H)
                 P_next = self._in_phase(item, stepper, P_next)
+            stepper.continued(stepped, P_next)
             if H is None:
                 break  # every trajectory has left the mode
             inv = mode.invariants.range(H)

@@ -102,6 +102,7 @@ class FlowStepper(SurfaceSteps):
         self._remainders: dict[str, np.ndarray] = {}
         self._rates: MeanValue | None = None
         self._equivalent: dict[int, MeanValue] = {}
+        self._approach: tuple[Zonotope, np.ndarray] | None = None
         self._affine_A: np.ndarray | None = None
         self._reduction_basis: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._basis_sought = False  # an affine mode's eigenbasis is sought once
@@ -237,7 +238,7 @@ class FlowStepper(SurfaceSteps):
             P_next, H, sig = self._settled(P, r, sig, self.mode)
         else:
             P_next, H = stepped
-        return self._attractive_cut(P, P_next, H, sig, sig[:, 0] < sig[:, 1])
+        return self._attractive_cut(P, P_next, H, sig, sig[:, 0] < sig[:, 1], r)
 
     def _covers(self, chain: AffineChain, ranges: np.ndarray, sig: np.ndarray,
                 P: Zonotope) -> bool:

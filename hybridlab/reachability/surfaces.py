@@ -110,6 +110,9 @@ class SurfaceSteps:
     input_hi: np.ndarray
     _rates: MeanValue | None
     _equivalent: dict[int, MeanValue]
+    #: the last end set of :meth:`_attractive_cut` and bounds ``(n_switches, 2)`` of its
+    #: switching functions, tighter than its range where they approach an attracting surface
+    _approach: tuple[Zonotope, np.ndarray] | None
 
     def _step_with(self, P: Zonotope, r: float, sig: np.ndarray, m: ModeSystem
                    ) -> tuple[Zonotope, Zonotope]:
@@ -278,28 +281,55 @@ class SurfaceSteps:
                     P_next = P_next.intersect_slab(a, lo, hi) or P_next
             free = (used[:, 0] == -1.0) & (used[:, 1] == 1.0)
             free &= ~forced
-            return self._attractive_cut(P, P_next, H, used, free)
+            return self._attractive_cut(P, P_next, H, used, free, r)
         return None
 
+    def continued(self, stepped: Zonotope | None, P: Zonotope | None) -> None:
+        """Say that the next step starts from ``P``: the end set ``stepped`` of the last
+        step, reduced or cut to where solutions stay in the mode. The bounds its switching
+        functions carry hold for every solution it holds, so they carry over to ``P``.
+
+        Examples
+        --------
+        See :meth:`_attractive_cut`; without this, each step starts afresh.
+        """
+        if self._approach is not None and self._approach[0] is stepped and P is not None:
+            self._approach = (P, self._approach[1])
+        else:
+            self._approach = None
+
     def _attractive_cut(self, P: Zonotope, P_next: Zonotope, H: Zonotope,
-                        sig: np.ndarray, free: np.ndarray) -> tuple[Zonotope, Zonotope]:
+                        sig: np.ndarray, free: np.ndarray, r: float
+                        ) -> tuple[Zonotope, Zonotope]:
         """Keep each ``free`` switching function within its start range on the sides its
-        surface attracts.
+        surface attracts, and on the surface once both sides have reached it.
 
         If over ``H`` the flow with ``sigma_k = +1`` (the side ``s_k > 0``) has
-        ``ds_k/dt <= 0``, no Filippov solution can rise above ``max(0, s_hi)`` of the start
-        set: above the surface ``s_k`` does not increase, and from the surface it cannot
-        enter that side. Likewise ``sigma_k = -1`` with ``ds_k/dt >= 0`` keeps ``s_k`` above
-        ``min(0, s_lo)``. Both together are sliding (a cart held by friction: ``v`` stays
-        0); one alone is a surface crossed in one direction only (a cart breaking away
-        never moves backwards). ``H`` and ``P_next`` are cut to the half-spaces that hold
-        (linear ``s_k`` only).
+        ``ds_k/dt <= up_hi <= 0``, no Filippov solution can rise above ``max(0, s_hi)`` of
+        the start set: above the surface ``s_k`` does not increase, and from the surface it
+        cannot enter that side; after ``r`` it is below ``max(0, s_hi + up_hi r)``, as a
+        solution that stays above falls at least that fast. Likewise ``sigma_k = -1`` with
+        ``ds_k/dt >= down_lo >= 0`` keeps ``s_k`` above ``min(0, s_lo)``, and above
+        ``min(0, s_lo + down_lo r)`` at the end. Both together are sliding (a cart held by
+        friction: ``v`` stays 0); one alone is a surface crossed in one direction only (a
+        cart breaking away never moves backwards). ``H`` and ``P_next`` are cut to the
+        half-spaces that hold (linear ``s_k`` only).
+
+        The end bounds are carried from step to step while each step starts from the last
+        one's end set. When both reach 0, every solution has come to rest on the surface (a
+        cart still moving as its friction takes over), and ``P_next`` is cut to it, where
+        the sliding rule takes over. Short of that the end set is cut to the start range
+        only: a thin slab can cost more in the other directions than it gains.
         """
         m = self.mode
         cut = np.flatnonzero(free & m.switches.linear).tolist()
         if not cut:
             return P_next, H
         start = m.switches.range(P)
+        approach = np.column_stack([np.full(len(start), -np.inf), np.full(len(start), np.inf)])
+        if self._approach is not None and self._approach[0] is P:
+            approach = self._approach[1]
+        ends = np.column_stack([np.full(len(start), -np.inf), np.full(len(start), np.inf)])
         for k in cut:
             up, down = self._attraction(H, sig, k)
             attracts_above, attracts_below = up[1] <= 0, down[0] >= 0
@@ -310,8 +340,34 @@ class SurfaceSteps:
             lo = min(0.0, start[k, 0]) - b if attracts_below else -np.inf  # a z + b >= ...
             # None cannot happen for a sound H; the uncut set is kept then
             H = H.intersect_slab(a, lo, hi) or H
+            if attracts_above:
+                ends[k, 1] = _approached(min(start[k, 1], approach[k, 1]), up[1], r)
+            if attracts_below:
+                ends[k, 0] = -_approached(-max(start[k, 0], approach[k, 0]), -down[0], r)
+            if ends[k, 0] == 0.0 == ends[k, 1]:
+                lo = hi = -b  # every solution has come to rest on the surface
             P_next = P_next.intersect_slab(a, lo, hi) or P_next
+        self._approach = (P_next, ends)
         return P_next, H
+
+
+def _approached(s_hi: float, rate_hi: float, r: float) -> float:
+    """An upper bound of ``max(0, s_hi + rate_hi r)`` (``rate_hi <= 0``), rounded up.
+
+    Examples
+    --------
+    >>> 0.5 < _approached(1.0, -2.0, 0.25) < 0.5 + 1e-15
+    True
+    >>> _approached(1.0, -2.0, 1.0), _approached(-1.0, -2.0, 1.0)
+    (0.0, 0.0)
+    """
+    if not s_hi > 0.0:
+        return 0.0
+    # two roundings, each within 2**-53 of |s_hi| + |rate_hi r|
+    end = s_hi + rate_hi * r + 4e-16 * (s_hi - rate_hi * r)
+    if not end > 0.0:
+        return 0.0
+    return float(np.nextafter(end, np.inf))
 
 
 def _side_range(side: float, eq: tuple[float, float] | None) -> np.ndarray:
