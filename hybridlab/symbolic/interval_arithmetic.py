@@ -342,6 +342,8 @@ def i_pow(al: float, ah: float, e: float) -> tuple[float, float]:
     >>> lo, 8.0 <= hi < 8.0 + 1e-12
     (0.0, True)
     """
+    if not math.isfinite(e):  # not a real power function: no bound
+        return -_INF, _INF
     if is_empty(al, ah) or ah < 0.0 or (ah == 0.0 and e < 0.0):
         return _NAN, _NAN
     xl = max(al, 0.0)

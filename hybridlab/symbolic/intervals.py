@@ -187,7 +187,7 @@ class Interval:
             return _checked(ia.i_rpow(self.lo, self.hi, exponent.lo, exponent.hi), "i_rpow",
                             self)
         e = float(exponent.lo if isinstance(exponent, Interval) else exponent)
-        if e == int(e) and abs(e) <= 2.0 ** 62:
+        if math.isfinite(e) and e == int(e) and abs(e) <= 2.0 ** 62:
             return _checked(ia.i_powi(self.lo, self.hi, int(e)), "i_powi", self)
         if e == 0.5:
             return _checked(ia.i_sqrt(self.lo, self.hi), "i_sqrt", self)
