@@ -86,11 +86,17 @@ class Interval:
 
     __slots__ = ("lo", "hi")
 
+    lo: float
+    hi: float
+
     def __init__(self, lo: float, hi: float) -> None:
         if not lo <= hi:  # also catches NaN
             raise IntervalError(f"interval bounds must satisfy lo <= hi (got [{lo}, {hi}])")
-        self.lo = lo
-        self.hi = hi
+        object.__setattr__(self, "lo", lo)
+        object.__setattr__(self, "hi", hi)
+
+    def __setattr__(self, name: str, value: object) -> None:
+        raise AttributeError(f"Interval is immutable (cannot set {name!r})")
 
     def __repr__(self) -> str:
         return f"Interval(lo={self.lo!r}, hi={self.hi!r})"
