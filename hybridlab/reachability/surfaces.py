@@ -287,11 +287,8 @@ class SurfaceSteps:
     def continued(self, stepped: Zonotope | None, P: Zonotope | None) -> None:
         """Say that the next step starts from ``P``: the end set ``stepped`` of the last
         step, reduced or cut to where solutions stay in the mode. The bounds its switching
-        functions carry hold for every solution it holds, so they carry over to ``P``.
-
-        Examples
-        --------
-        See :meth:`_attractive_cut`; without this, each step starts afresh.
+        functions carry hold for every solution it holds, so they carry over to ``P``
+        (:meth:`_attractive_cut`). Any other next start set starts afresh.
         """
         if self._approach is not None and self._approach[0] is stepped and P is not None:
             self._approach = (P, self._approach[1])
