@@ -233,6 +233,15 @@ _FOLD: Mapping[type, str] = {sp.Add: "i_add", sp.Mul: "i_mul", sp.Min: "i_min", 
 _SUPPORTED = (*_FOLD, sp.Pow, sp.atan2, *_UNARY)
 
 
+def _op_of(expr: sp.Expr, table: Mapping[type, str]) -> str | None:
+    """The instruction of ``table`` for ``expr``'s class, or a class it derives from (the
+    same test as :data:`_SUPPORTED`)."""
+    for kind, op in table.items():
+        if isinstance(expr, kind):
+            return op
+    return None
+
+
 @dataclass(frozen=True)
 class Instruction:
     """``slot = op(*args, *consts)``: ``args`` are earlier slots, ``consts`` numbers.
@@ -324,12 +333,15 @@ class IntervalProgram:
             return self._power(expr)
         if isinstance(expr, sp.Mul) and expr.args[0] == -1:  # negation is exact
             return "i_neg", (self.add(sp.Mul(*expr.args[1:])),), ()
-        fold = _FOLD.get(type(expr))
+        fold = _op_of(expr, _FOLD)
         if fold is not None:
             return self._fold(fold, expr.args)
         if isinstance(expr, sp.atan2):
             return "i_atan2", (self.add(expr.args[0]), self.add(expr.args[1])), ()
-        return _UNARY[type(expr)], (self.add(expr.args[0]),), ()
+        unary = _op_of(expr, _UNARY)
+        if unary is None:  # not reached: _SUPPORTED holds exactly these classes
+            raise IntervalError(f"interval arithmetic does not support {type(expr).__name__}")
+        return unary, (self.add(expr.args[0]),), ()
 
     def _constant(self, value: sp.Expr) -> tuple[str, tuple[int, ...], tuple[float, ...]]:
         if not value.is_finite:
