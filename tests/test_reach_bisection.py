@@ -98,6 +98,24 @@ def test_a_complete_flowpipe_too_wide_for_its_spec_is_bisected_before_the_step_i
                                    "failed, split='auto'; 2 pieces)")
 
 
+def test_the_refinement_does_not_depend_on_how_far_the_quick_proof_got(models_dir,
+                                                                       monkeypatch):
+    # on a loaded machine the quick attempt's time cap can end it before its first unproved
+    # set; the verdict then finds where that set fails by an attempt that ends there, and
+    # bisects as it does on an idle machine
+    from hybridlab.reachability import verdict as verdict_module
+    from hybridlab.verify import VerdictStatus, check_safety
+
+    monkeypatch.setattr(verdict_module, "_QUICK_PROOF_S", 0.0)
+    vdp = load_spaceex(models_dir / "spaceex" / "vanderpol.xml",
+                       models_dir / "spaceex" / "vanderpol.cfg")
+    kw = {**{k: v for k, v in vdp.reach_kwargs().items() if k != "step"}, "t_end": 3.0}
+    verdict = check_safety(vdp.model, safe="y >= -2.7", flowpipe="zonotope", **kw)
+    assert verdict.status is VerdictStatus.SAFE, verdict.reason
+    assert verdict.reason.endswith("(refined: the initial set bisected where its pieces "
+                                   "failed, split='auto'; 2 pieces)")
+
+
 @pytest.mark.parametrize(("changes", "message"), [
     ({"split": "half"}, "split must be a positive integer or 'auto'"),
     ({"max_pieces": 0}, "max_pieces must be a positive integer"),

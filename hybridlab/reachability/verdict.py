@@ -440,13 +440,23 @@ def check(
         bisections.append(pieces)
         return pieces if pieces.proved and pieces.result.complete else best
 
-    # a nonlinear flowpipe of one mode whose first unproved set fails at its step instants
-    # too, not only between them, is too wide rather than too coarse in time: bisected first
-    wide_first = (not split_chosen and quick is not None and quick.result.stopped_unproved
-                  and not quick.result.unproved_between_steps and not best.jumped
-                  and best.result.nonlinear)
+    def fails_at_step_instants() -> bool:
+        """Whether the first set that does not prove every spec fails at its step instants
+        too, not only between them: as the quick attempt found, or, where its time cap
+        ended it before that set, as an attempt that ends there finds (so the machine's
+        speed does not choose the refinement)."""
+        if quick is None or stands:
+            return False
+        first = quick
+        if not (quick.result.stopped_unproved or quick.result.complete):
+            first = attempt({}, stop=True, again=True)
+        return first.result.stopped_unproved and not first.result.unproved_between_steps
+
     try:  # a refinement that fails leaves the result before it standing
-        if best.open and wide_first:
+        # a nonlinear flowpipe of one mode whose first unproved set fails at its step
+        # instants too is too wide rather than too coarse in time: bisected first
+        if (best.open and not split_chosen and not best.jumped and best.result.nonlinear
+                and fails_at_step_instants()):
             best = bisected(best, capped=True)
         if best.open and not step_chosen:
             best = halved(best)
