@@ -35,6 +35,7 @@ import numpy as np
 import sympy as sp
 
 from hybridlab.model.expressions import as_expression
+from hybridlab.reachability.rounding import PRODUCT_SLACK, SLACK
 from hybridlab.symbolic.functions import _no_impulses
 from hybridlab.symbolic.intervals import IntervalFunction
 
@@ -150,9 +151,9 @@ class ThirdOrder:
             np.add.at(coef, (self.group, m), self.multiplicity * mid)
             forms = np.abs(coef @ D).sum(axis=1)
             # rounding of the products, relative to the products of magnitudes
-            forms += 1e-10 * (np.abs(coef) @ np.abs(D)).sum(axis=1)
+            forms += PRODUCT_SLACK * (np.abs(coef) @ np.abs(D)).sum(axis=1)
             pair = np.zeros(self.group_rows.size)
             pair[self.group] = delta[j] * delta[k]
             np.add.at(out, self.group_rows, forms * pair)
-        return np.nextafter(out / 6.0 * (1 + 1e-12), np.inf)
+        return np.nextafter(out / 6.0 * (1 + SLACK), np.inf)
 

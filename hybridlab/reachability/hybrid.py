@@ -70,6 +70,7 @@ from hybridlab.reachability.phases import (
     without_phase,
 )
 from hybridlab.reachability.result import ReachResult, ReachSet, _Context
+from hybridlab.reachability.rounding import SLACK, TINY
 from hybridlab.reachability.sets import Box, SetError, Zonotope
 from hybridlab.reachability.slicing import Slice, unread_outputs
 from hybridlab.reachability.spec import Spec, lowers_on
@@ -836,7 +837,7 @@ class _Analysis:
             raise StepError(f"reset of transition {self.compiled.transitions[index].name!r} "
                             "is unbounded over the set")
         dev = np.maximum(np.abs(box[:, 0] - z_star), np.abs(box[:, 1] - z_star))
-        rad = J_rad @ dev + 1e-12 * (np.abs(value) + np.abs(J_mid) @ dev) + 1e-300
+        rad = J_rad @ dev + SLACK * (np.abs(value) + np.abs(J_mid) @ dev) + TINY
         G = np.hstack([J_mid @ Z.generators, np.diag(rad)])
         return Zonotope(value, G)
 

@@ -44,7 +44,7 @@ import numpy as np
 from hybridlab.errors import HybridlabError
 from hybridlab.reachability.balls import expm_enclosure
 from hybridlab.reachability.modal import Basis, FastBlock, block_basis, fast_block
-from hybridlab.reachability.rounding import U, gamma, product_error, up
+from hybridlab.reachability.rounding import SLACK, TINY, U, gamma, product_error, up
 from hybridlab.reachability.sets import Zonotope
 
 __all__ = ["StepError", "Propagator", "TaylorBlock", "affine_step", "interval_map", "assemble"]
@@ -95,7 +95,7 @@ def _tail(a: float, eta: int) -> float:
     if a == 0:
         return 0.0
     log_term = (eta + 1) * math.log(a) - math.lgamma(eta + 2)
-    return math.exp(log_term) / (1.0 - a / (eta + 2)) * (1 + 1e-12) + 1e-300
+    return math.exp(log_term) / (1.0 - a / (eta + 2)) * (1 + SLACK) + TINY
 
 
 @dataclass(frozen=True, eq=False)
@@ -284,7 +284,7 @@ class Propagator:
         growth = sup_norm * basis.eps * r
         if not growth < 1e-3:
             raise StepError(f"the block basis is too ill-conditioned for the step {r:g}")
-        drift = sup_norm * math.expm1(growth) * (1 + 1e-12) + 1e-300
+        drift = sup_norm * math.expm1(growth) * (1 + SLACK) + TINY
         return Propagator(A=A, Ah=Ah, phi=phi, phi_rad=phi_rad, r=r, slow=slow, basis=basis,
                           fast=fast, coupling=Coupling.build(basis, fast, r),
                           input_coupling=drift * r)

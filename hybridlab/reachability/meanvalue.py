@@ -14,8 +14,8 @@ intersected with the plain interval enclosure over the hull, so it is never wide
 
 What it rests on: the outward-rounded interval arithmetic of
 :mod:`hybridlab.symbolic.intervals` for ``f(w_c)`` and ``J``, and the matrix products
-rounded up by a relative ``1e-10`` of the products of magnitudes (far above the
-``n * 2^-53`` a float dot product of ``n`` terms can be off by).
+rounded up by :data:`~hybridlab.reachability.rounding.PRODUCT_SLACK` of the products of
+magnitudes (far above the ``n * 2^-53`` a float dot product of ``n`` terms can be off by).
 """
 
 from __future__ import annotations
@@ -25,15 +25,12 @@ from collections.abc import Sequence
 import numpy as np
 import sympy as sp
 
+from hybridlab.reachability.rounding import PRODUCT_SLACK, TINY
 from hybridlab.reachability.sets import Zonotope
 from hybridlab.symbolic.functions import _no_impulses
 from hybridlab.symbolic.intervals import IntervalFunction
 
 __all__ = ["MeanValue"]
-
-#: relative round-up of the products of magnitudes in the spread
-_PRODUCT_SLACK = 1e-10
-
 
 class MeanValue:
     """Enclosures of ``f(z, u)`` over a zonotope of ``z`` and a box of ``u``.
@@ -97,7 +94,7 @@ class MeanValue:
         magnitude = ((np.abs(mid[:, :nz]) + rad[:, :nz]) @ absG).sum(axis=1) \
             + (np.abs(mid[:, nz:]) + rad[:, nz:]) @ u_rad
         with np.errstate(over="ignore", invalid="ignore"):
-            spread = spread + _PRODUCT_SLACK * magnitude + 1e-300
+            spread = spread + PRODUCT_SLACK * magnitude + TINY
             mv_lo = np.nextafter(v_lo - spread, -np.inf)
             mv_hi = np.nextafter(v_hi + spread, np.inf)
         ok = np.isfinite(mv_lo) & np.isfinite(mv_hi)
@@ -134,7 +131,7 @@ class MeanValue:
         dev = np.nextafter(np.maximum(box[:, 1] - c, c - box[:, 0]), np.inf)
         with np.errstate(over="ignore", invalid="ignore"):
             at_c = mid @ c
-            spread = rad @ dev + _PRODUCT_SLACK * (np.abs(mid) @ np.abs(c)) + 1e-300
+            spread = rad @ dev + PRODUCT_SLACK * (np.abs(mid) @ np.abs(c)) + TINY
             lo = np.nextafter(v_lo - at_c - spread, -np.inf)
             hi = np.nextafter(v_hi - at_c + spread, np.inf)
         return mid, lo, hi
@@ -149,7 +146,7 @@ class MeanValue:
             return lo, hi
         v_lo, v_hi, grad, slack = form
         with np.errstate(over="ignore", invalid="ignore"):
-            spread = np.abs(grad @ Z.generators).sum(axis=1) * (1 + _PRODUCT_SLACK) + slack
+            spread = np.abs(grad @ Z.generators).sum(axis=1) * (1 + PRODUCT_SLACK) + slack
             so_lo = np.nextafter(v_lo - spread, -np.inf)
             so_hi = np.nextafter(v_hi + spread, np.inf)
         ok = np.isfinite(so_lo) & np.isfinite(so_hi)
@@ -190,7 +187,7 @@ class MeanValue:
         with np.errstate(over="ignore", invalid="ignore"):
             slack = ((rad[:, :nz] @ absG).sum(axis=1)
                      + (np.abs(mid[:, nz:]) + rad[:, nz:]) @ u_rad
-                     + _PRODUCT_SLACK * ((np.abs(mid[:, :nz]) @ absG).sum(axis=1)) + quad)
+                     + PRODUCT_SLACK * ((np.abs(mid[:, :nz]) @ absG).sum(axis=1)) + quad)
         if not np.all(np.isfinite(slack)):
             return None
         return v_lo, v_hi, mid[:, :nz], np.nextafter(slack, np.inf)

@@ -44,6 +44,7 @@ from hybridlab.reachability.linear import Propagator, StepError, affine_step
 from hybridlab.reachability.meanvalue import MeanValue
 from hybridlab.reachability.modal import eigenbasis
 from hybridlab.reachability.options import ReachOptions
+from hybridlab.reachability.rounding import PRODUCT_SLACK, SLACK
 from hybridlab.reachability.sets import Zonotope
 from hybridlab.reachability.surfaces import SurfaceSteps, signs_box
 from hybridlab.reachability.system import ModeSystem, System
@@ -454,7 +455,7 @@ def remainder_bound(m: ModeSystem, H: Zonotope, z_star: np.ndarray, u_lo: np.nda
                                      p_hi.reshape(H.dim, nw, nw), D, delta)
             cubic = cubic + third.bound(lo, hi, D, delta, H.dim)
             bound = np.where(cubic < bound, cubic, bound)
-        return np.nextafter(bound * (1 + 1e-12), np.inf)
+        return np.nextafter(bound * (1 + SLACK), np.inf)
 
 
 def _deviations(H: Zonotope, z_star: np.ndarray, u_rad: np.ndarray) -> np.ndarray:
@@ -478,7 +479,7 @@ def _quadratic_bound(h_lo: np.ndarray, h_hi: np.ndarray, D: np.ndarray,
     ``sum |D' mid_i D| + |d|' rad_i |d|`` in magnitude (``|d| <= delta``). The box bound
     ``sum |Hess_i| delta delta`` is never smaller, and much larger where ``d``'s entries are
     correlated so that they cancel (a stiff controller's ``x_ref - x``). The products are
-    rounded up by a relative ``1e-10`` of the products of magnitudes.
+    rounded up by :data:`~.rounding.PRODUCT_SLACK` of the products of magnitudes.
     """
     nz, nw, _ = h_lo.shape
     mid = 0.5 * (h_lo + h_hi)
@@ -494,7 +495,7 @@ def _quadratic_bound(h_lo: np.ndarray, h_hi: np.ndarray, D: np.ndarray,
     for i in rows:
         M = mid[i][np.ix_(used, used)]
         # d' M d = d' (M + M')/2 d: the symmetric part's form has half the distinct entries
-        quad = _form_abs_sum(0.5 * (M + M.T), D) + 1e-10 * float(mass @ np.abs(M) @ mass)
+        quad = _form_abs_sum(0.5 * (M + M.T), D) + PRODUCT_SLACK * float(mass @ np.abs(M) @ mass)
         bound[i] += 0.5 * quad
     return np.nextafter(bound, np.inf)
 

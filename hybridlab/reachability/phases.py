@@ -56,6 +56,7 @@ import numpy as np
 import sympy as sp
 
 from hybridlab.reachability.meanvalue import MeanValue
+from hybridlab.reachability.rounding import SLACK, TINY
 from hybridlab.reachability.sets import Zonotope
 from hybridlab.reachability.surfaces import on_surface_tolerance
 from hybridlab.reachability.system import ModeSystem, ResetMap, Rows, System
@@ -273,7 +274,7 @@ class Phases:
         # rate(z) in [v_lo - slack, v_hi + slack] + g . (z - c)
         g_lo = lo - float(v_hi[k]) - float(slack[k]) + at_c if np.isfinite(lo) else -np.inf
         g_hi = hi - float(v_lo[k]) + float(slack[k]) + at_c if np.isfinite(hi) else np.inf
-        pad = 1e-12 * (abs(at_c) + float(np.abs(g) @ np.abs(Z.center)) + 1e-300)
+        pad = SLACK * (abs(at_c) + float(np.abs(g) @ np.abs(Z.center)) + TINY)
         if not np.any(g):
             return Z if g_lo - pad <= 0 <= g_hi + pad or not (np.isfinite(g_lo) or
                                                             np.isfinite(g_hi)) else None

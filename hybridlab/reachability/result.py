@@ -14,6 +14,7 @@ import sympy as sp
 from hybridlab._files import replace_text
 from hybridlab.model.expressions import as_expression, parse_expression
 from hybridlab.reachability.options import ReachOptions
+from hybridlab.reachability.rounding import SLACK
 from hybridlab.reachability.sets import Zonotope
 from hybridlab.symbolic.intervals import Interval, IntervalFunction
 
@@ -99,7 +100,7 @@ def _linear_bounds(supports: np.ndarray, b: np.ndarray) -> np.ndarray:
     k = b.size
     hi = supports[:k] + b
     lo = -supports[k:] + b
-    slack = 1e-12 * (1.0 + np.abs(lo) + np.abs(hi))
+    slack = SLACK * (1.0 + np.abs(lo) + np.abs(hi))
     return np.column_stack([np.nextafter(lo - slack, -np.inf), np.nextafter(hi + slack, np.inf)])
 
 

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from hybridlab.errors import HybridlabError
-from hybridlab.reachability.rounding import TINY, U, gamma, product_error, up
+from hybridlab.reachability.rounding import SLACK, TINY, U, gamma, product_error, up
 
 __all__ = ["SetError", "Box", "Zonotope", "Polytope", "as_zonotope"]
 
@@ -429,8 +429,8 @@ class Zonotope:
         spread = float(np.sum(np.abs(d)))
         # relative to the terms of s too: a point on the boundary is never declared outside
         # by the rounding of a . c
-        slack = 1e-12 * (abs(s) + spread + abs(float(b)) + float(np.abs(a) @ np.abs(c))
-                         + 1e-300)
+        slack = SLACK * (abs(s) + spread + abs(float(b)) + float(np.abs(a) @ np.abs(c))
+                          + TINY)
         if -spread > s + slack:
             return None
         if spread <= s:
@@ -450,11 +450,11 @@ class Zonotope:
             for i in np.flatnonzero(np.abs(d) > 1e-300):
                 limit = (room - abs(d[i])) / d[i]
                 if d[i] > 0:
-                    hi[i] = min(hi[i], limit * (1 + 1e-12) + 1e-300 if limit > 0 else
-                                limit * (1 - 1e-12) + 1e-300)
+                    hi[i] = min(hi[i], limit * (1 + SLACK) + TINY if limit > 0 else
+                                limit * (1 - SLACK) + TINY)
                 else:
-                    lo[i] = max(lo[i], limit * (1 + 1e-12) - 1e-300 if limit < 0 else
-                                limit * (1 - 1e-12) - 1e-300)
+                    lo[i] = max(lo[i], limit * (1 + SLACK) - TINY if limit < 0 else
+                                limit * (1 - SLACK) - TINY)
         if np.any(lo > hi):
             return None
         mid, rad = 0.5 * (lo + hi), 0.5 * (hi - lo)
@@ -561,7 +561,7 @@ class Zonotope:
         shift = float(a @ c)
         l, u = float(lo) - shift, float(hi) - shift
         spread = float(np.sum(np.abs(d)))
-        tol = 1e-12 * (spread + abs(l) + abs(u) + 1e-300) if np.isfinite(l + u) else 0.0
+        tol = SLACK * (spread + abs(l) + abs(u) + TINY) if np.isfinite(l + u) else 0.0
         if u < -spread - tol or l > spread + tol:
             return None
         # breakpoints only where d_j is not negligible: any multiplier gives a valid bound
@@ -585,7 +585,7 @@ class Zonotope:
         g = vals[np.arange(C.shape[0]), best]
         ends = (abs(u) if np.isfinite(u) else 0.0) + (abs(l) if np.isfinite(l) else 0.0)
         size = np.sum(np.abs(C), axis=1) + np.abs(mu) * (spread + ends)
-        g = g - 1e-12 * size - 1e-300                              # rounding of the evaluation
+        g = g - SLACK * size - TINY                                # rounding of the evaluation
         n = G.shape[0]
         lower = c + g[:n]          # min G_i b >= g_i
         upper = c - g[n:]          # max G_i b = -min(-G_i b) <= -g_{n+i}
