@@ -75,6 +75,25 @@ def test_event_sequences_and_times_agree_with_the_reference(compiled_models, nam
     np.testing.assert_allclose(fast(t), ref(t), rtol=1e-6, atol=1e-7)
 
 
+def test_a_step_refined_past_the_samplers_buffers_gives_the_reference_events():
+    # one sampling interval per step and 8 refinement levels over a guard that dips below
+    # zero six times a second: a step refined R times has 3 + 2 R samples, so more than 3
+    # refinements per step on average put some step past the 8 samples the kernel's sampler
+    # starts with; it doubles its buffers and scans that step again
+    wiggle = hybridlab.model_from_dict({
+        "name": "wiggle", "states": {"x": 0.0, "y": 0.0},
+        "modes": {"m": {"flow": {"x": "1", "y": "0"}}}, "initial": {"mode": "m"},
+        "transitions": [{"name": "dip", "source": "m", "target": "m",
+                         "guard": "sin(40*x) + 0.999 <= 0", "reset": {"y": "y + 1"}}]})
+    runs = {backend: hybridlab.simulate(wiggle, t_end=1.0, backend=backend, samples_per_step=1,
+                                        max_refine=8, max_step=1.0)
+            for backend in ("reference", "compiled")}
+    times = {backend: [event.t for event in run.jumps] for backend, run in runs.items()}
+    assert len(times["compiled"]) == 3
+    assert times["compiled"] == pytest.approx(times["reference"], abs=1e-9)
+    assert runs["compiled"].stats["refinements"] > 3 * runs["compiled"].stats["steps"]
+
+
 def test_sliding_runs_compiled_with_the_reference_slide_events(compiled_models):
     relay = hybridlab.simulate(compiled_models["relay_sliding"], backend="compiled")
     assert relay.stats["backend"] == "compiled" and "fallback" not in relay.stats

@@ -51,8 +51,10 @@ from hybridlab.simulation.compiled.locate import (
     EXIT,
     GUARD,
     INVARIANT,
+    OUTGROWN,
     SWITCH,
     monitors_at,
+    sample_workspace,
     scan,
     xtol_at,
 )
@@ -258,6 +260,7 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
             if tr_monitored[out_list[oi]] == 1:
                 c += 1
         m_max = max(m_max, c)
+    sw = sample_workspace(m_max, 4 * (samples + 1))  # doubled when a step outgrows it
     table = np.empty((5, m_max), dtype=np.int64)  # kind, ref, start, length, hit rows
     mk, mref, mstart, mlen, hit_rows = table[0], table[1], table[2], table[3], table[4]
     flags = np.zeros((2, m_max), dtype=np.bool_)  # armed, has a floor
@@ -618,9 +621,15 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
                     nfire = 0
                     stats[4] += 1
                 else:
-                    nfire, rows, times, graz, armed = scan(
-                        model, md, p, sig, ws, step, armed, has_floor, floors, t_old, t_new,
-                        samples, max_refine, event_tol, event_atol, stats)
+                    while True:
+                        nfire = scan(model, md, p, sig, ws, sw, step, armed, has_floor,
+                                     floors, t_old, t_new, samples, max_refine, event_tol,
+                                     event_atol, stats)
+                        if nfire != OUTGROWN:
+                            break
+                        sw = sample_workspace(m_max, 2 * sw.times.size)
+                    armed[:] = sw.armed[:M]
+                    rows, times, graz = sw.rows, sw.at, sw.grazing
                 if flag[0] != 0:
                     code = HANDOFF
                     break

@@ -30,7 +30,7 @@ from typing import NamedTuple
 import numpy as np
 
 __all__ = ["BoxWorkspace", "DenseStep", "FlowContext", "KernelCheckpoint", "KernelResult",
-           "LocateWorkspace", "ModelTables", "Monitors", "Probe"]
+           "LocateWorkspace", "ModelTables", "Monitors", "Probe", "SampleWorkspace"]
 
 
 class ModelTables(NamedTuple):
@@ -276,3 +276,53 @@ class Probe(NamedTuple):
     y_old: object
     active: object
     sliding: object
+
+
+class SampleWorkspace(NamedTuple):
+    """Buffers of the sampler and the trigger search (:mod:`.locate`) for ``capacity``
+    samples per step and the mode with the most monitors, so that scanning a step neither
+    allocates nor counts references. A step refined past the capacity makes the kernel
+    double it and scan the step again.
+
+    The sample times, monitor values and slopes (in order of evaluation); the uniform
+    grid; the intervals' ends, twice (the current ones and the next level's), their
+    midpoints and which of them split; the samples' order by time; the sorted times,
+    values and slopes without repeats (values and slopes flat, read as ``(monitors,
+    samples)``); per monitor the rows, times and grazing flags of the monitors that fire,
+    the instants their search starts, whether it is searched, their order and whether
+    each is armed after the step; per interval of one monitor its cubic's minimum and
+    where it is, its maximum and where it is, its lower bound, and the candidate intervals.
+
+    Examples
+    --------
+    >>> SampleWorkspace._fields[:3]
+    ('times', 'values', 'slopes')
+    """
+
+    times: np.ndarray
+    values: np.ndarray
+    slopes: np.ndarray
+    grid: np.ndarray
+    left: np.ndarray
+    right: np.ndarray
+    next_left: np.ndarray
+    next_right: np.ndarray
+    middle: np.ndarray
+    split: np.ndarray
+    order: np.ndarray
+    sorted_times: np.ndarray
+    sorted_values: np.ndarray
+    sorted_slopes: np.ndarray
+    rows: np.ndarray
+    at: np.ndarray
+    grazing: np.ndarray
+    starts: np.ndarray
+    searched: np.ndarray
+    rank: np.ndarray
+    armed: np.ndarray
+    low: np.ndarray
+    low_at: np.ndarray
+    high: np.ndarray
+    high_at: np.ndarray
+    lower: np.ndarray
+    candidates: np.ndarray

@@ -18,7 +18,7 @@ import numba
 import numpy as np
 
 from hybridlab.simulation.compiled.integrate import RK45, dense_eval_at
-from hybridlab.simulation.compiled.layout import Probe
+from hybridlab.simulation.compiled.layout import Probe, SampleWorkspace
 from hybridlab.simulation.compiled.opcodes import (
     OP_COND,
     OP_COND_BOTH,
@@ -36,10 +36,12 @@ from hybridlab.simulation.rules import (
     event_time_tolerance,
 )
 
-__all__ = ["monitors_at", "monitor_value", "sample_step", "scan", "xtol_at", "GUARD", "INVARIANT",
-           "SWITCH", "EXIT"]
+__all__ = ["monitors_at", "monitor_value", "sample_step", "sample_workspace", "scan", "xtol_at",
+           "GUARD", "INVARIANT", "SWITCH", "EXIT", "OUTGROWN"]
 
 GUARD, INVARIANT, SWITCH, EXIT = 0, 1, 2, 3
+#: what :func:`scan` returns when the step's samples outgrow the workspace
+OUTGROWN = -1
 _EPS = np.finfo(np.float64).eps
 #: :func:`hybridlab.simulation.rules.event_time_tolerance`, compiled
 xtol_at = numba.njit(cache=True, inline="always")(event_time_tolerance)
@@ -256,17 +258,32 @@ def _batch(model, md, p, sig, ws, step, times, T, PHI, DPHI, n0):
 
 
 @numba.njit(cache=True)
-def _grow(T, PHI, DPHI, need):
-    if need <= T.size:
-        return T, PHI, DPHI
-    cap = max(need, 2 * T.size)
-    T2 = np.empty(cap)
-    P2 = np.empty((PHI.shape[0], cap))
-    D2 = np.empty((PHI.shape[0], cap))
-    T2[:T.size] = T
-    P2[:, :T.size] = PHI
-    D2[:, :T.size] = DPHI
-    return T2, P2, D2
+def sample_workspace(m_max, capacity):
+    """A :class:`~.layout.SampleWorkspace` for ``capacity`` samples per step and at most
+    ``m_max`` monitors in a mode."""
+    c = capacity
+    m = max(m_max, 1)
+    return SampleWorkspace(
+        np.empty(c), np.empty((m, c)), np.empty((m, c)), np.empty(c),
+        np.empty(c, dtype=np.int64), np.empty(c, dtype=np.int64), np.empty(c, dtype=np.int64),
+        np.empty(c, dtype=np.int64), np.empty(c), np.zeros(c, dtype=np.bool_),
+        np.empty(c, dtype=np.int64), np.empty(c), np.empty(m * c), np.empty(m * c),
+        np.empty(m, dtype=np.int64), np.empty(m), np.zeros(m, dtype=np.bool_), np.empty(m),
+        np.zeros(m, dtype=np.bool_), np.empty(m, dtype=np.int64), np.zeros(m, dtype=np.bool_),
+        np.empty(c), np.empty(c), np.empty(c), np.empty(c), np.empty(c),
+        np.empty(c, dtype=np.int64))
+
+
+@borrowing
+def _stable_order(keys, n, order):
+    """The permutation that sorts ``keys[:n]``, into ``order[:n]``: stable, so equal keys
+    keep their order, as numpy's mergesort (by insertion: the samples come nearly sorted)."""
+    for i in range(n):
+        j = i
+        while j > 0 and keys[order[j - 1]] > keys[i]:
+            order[j] = order[j - 1]
+            j -= 1
+        order[j] = i
 
 
 @numba.njit(cache=True)
@@ -274,39 +291,49 @@ def _sgn(v):
     return 0.0 if v == 0 else (1.0 if v > 0 else (-1.0 if v < 0 else v))
 
 
-@numba.njit(cache=True)
-def sample_step(model, md, p, sig, ws, step, t0, t1, samples, max_refine, tol):
-    """Samples of every monitor on ``[t0, t1]``, refined until resolved (see location.py)."""
+@borrowing
+def sample_step(model, md, p, sig, ws, sw, step, t0, t1, samples, max_refine, tol):
+    """Samples of every monitor on ``[t0, t1]``, refined until resolved (see location.py).
+
+    Returns ``(k, refinements)``: the ``k`` samples sorted by time, without repeats, are in
+    ``sw.sorted_times[:k]`` and, read as ``(monitors, k)``, ``sw.sorted_values`` and
+    ``sw.sorted_slopes``; ``k`` is :data:`OUTGROWN` where they would not fit in ``sw``.
+    """
     M = md.kind.size
-    cap = 4 * (samples + 1)
-    T = np.empty(cap)
-    PHI = np.empty((M, cap))
-    DPHI = np.empty((M, cap))
-    grid = np.empty(samples + 1)
+    cap = sw.times.size
+    if samples + 1 > cap:
+        return OUTGROWN, 0
+    T, PHI, DPHI = sw.times, sw.values, sw.slopes
+    grid = sw.grid[:samples + 1]
     delta = (t1 - t0) / samples
     for i in range(samples + 1):
         grid[i] = i * delta + t0
     grid[samples] = t1
     _batch(model, md, p, sig, ws, step, grid, T, PHI, DPHI, 0)
     nk = samples + 1
-    a_idx = np.arange(samples)
-    b_idx = np.arange(1, samples + 1)
+    a_idx, b_idx = sw.left[:samples], sw.right[:samples]
+    for k in range(samples):
+        a_idx[k], b_idx[k] = k, k + 1
+    ahead = False  # the next level's ends are in next_left/next_right
     refinements = 0
     q = CHECK_AT
     for level in range(max_refine + 1):
         K = a_idx.size
         if M == 0 or K == 0:
             break
-        c_t = np.empty(K)
+        if nk + K > cap:
+            return OUTGROWN, 0
+        c_t = sw.middle[:K]
         for k in range(K):
             c_t[k] = T[a_idx[k]] + q * (T[b_idx[k]] - T[a_idx[k]])
-        T, PHI, DPHI = _grow(T, PHI, DPHI, nk + K)
         _batch(model, md, p, sig, ws, step, c_t, T, PHI, DPHI, nk)
         c0 = nk
         nk += K
         if level == max_refine:
             break
-        split = np.zeros(K, dtype=np.bool_)
+        split = sw.split[:K]
+        for k in range(K):  # (element loops: a slice assignment needs numba's runtime)
+            split[k] = False
         for k in range(K):
             a, b, c = a_idx[k], b_idx[k], c0 + k
             h = T[b] - T[a]
@@ -333,8 +360,13 @@ def sample_step(model, md, p, sig, ws, step, t0, t1, samples, max_refine, tol):
         if ns == 0:
             break
         refinements += ns
-        na = np.empty(2 * ns, dtype=np.int64)
-        nb = np.empty(2 * ns, dtype=np.int64)
+        if 2 * ns > cap:
+            return OUTGROWN, 0
+        if ahead:
+            na, nb = sw.left[:2 * ns], sw.right[:2 * ns]
+        else:
+            na, nb = sw.next_left[:2 * ns], sw.next_right[:2 * ns]
+        ahead = not ahead
         i = 0
         for k in range(K):
             if split[k]:
@@ -344,14 +376,26 @@ def sample_step(model, md, p, sig, ws, step, t0, t1, samples, max_refine, tol):
                 nb[ns + i] = b_idx[k]
                 i += 1
         a_idx, b_idx = na, nb
-    order = np.argsort(T[:nk], kind="mergesort")
-    keep = np.ones(nk, dtype=np.bool_)
-    for i in range(1, nk):
-        if T[order[i]] == T[order[i - 1]]:
-            keep[i] = False
-    sel = order[keep]
-    return T[sel], np.ascontiguousarray(PHI[:, sel]), np.ascontiguousarray(DPHI[:, sel]), \
-        refinements
+    order = sw.order
+    _stable_order(T, nk, order)
+    k = 1 if nk > 0 else 0
+    for i in range(1, nk):  # equal times: the first in this order is kept
+        if T[order[i]] != T[order[i - 1]]:
+            k += 1
+    t_out = sw.sorted_times
+    v_out = sw.sorted_values[:M * k].reshape((M, k))
+    d_out = sw.sorted_slopes[:M * k].reshape((M, k))
+    c = 0
+    for i in range(nk):
+        if i > 0 and T[order[i]] == T[order[i - 1]]:
+            continue
+        j = order[i]
+        t_out[c] = T[j]
+        for r in range(M):
+            v_out[r, c] = PHI[r, j]
+            d_out[r, c] = DPHI[r, j]
+        c += 1
+    return k, refinements
 
 
 @numba.njit(cache=True, inline="always")
@@ -604,18 +648,15 @@ def _search(model, md, p, sig, ws, step, r, cand, tau, phi, lo_val, lo_s, t_from
     return False, 0.0, False
 
 
-@numba.njit(cache=True)
-def _first_trigger(model, md, p, sig, ws, step, r, tau, phi, dphi, armed, xtol, tol,
+@borrowing
+def _first_trigger(model, md, p, sig, ws, sw, step, r, tau, phi, dphi, armed, xtol, tol,
                    has_floor, floor, t_event, width):
     """``first_trigger`` of location.py: ``(found, t, grazing, armed_after)``; ``t_event`` is
     the event located so far in the step (``inf``: none), ``width`` the cluster width."""
     pr = probe(md, p, sig, ws, step, r)
     K = tau.size - 1
-    lo_val = np.empty(K)
-    lo_s = np.empty(K)
-    hi_val = np.empty(K)
-    hi_s = np.empty(K)
-    lower = np.empty(K)
+    lo_val, lo_s, hi_val, hi_s = sw.low[:K], sw.low_at[:K], sw.high[:K], sw.high_at[:K]
+    lower = sw.lower[:K]
     # a disarmed monitor re-arms at the latest in the first interval that ends above tol; the
     # intervals after it are searched like an armed monitor's
     searched = armed
@@ -654,7 +695,7 @@ def _first_trigger(model, md, p, sig, ws, step, r, tau, phi, dphi, armed, xtol, 
             break
         if has_floor:  # before it re-arms, sinking below the floor fires it
             n = 0
-            cand = np.empty(start + 1, dtype=np.int64)
+            cand = sw.candidates
             for k in range(start):
                 if lower[k] <= floor:
                     cand[n] = k
@@ -678,7 +719,7 @@ def _first_trigger(model, md, p, sig, ws, step, r, tau, phi, dphi, armed, xtol, 
                 and probe_value(model, pr, t_event) <= 0 < probe_value(model, pr, t_event - width)):
             return True, t_event, False, True
     n = 0
-    cand = np.empty(K, dtype=np.int64)
+    cand = sw.candidates
     for k in range(start, K):
         if lower[k] <= tol:
             cand[n] = k
@@ -688,28 +729,38 @@ def _first_trigger(model, md, p, sig, ws, step, r, tau, phi, dphi, armed, xtol, 
     return found, t_hit, graz, True
 
 
-@numba.njit(cache=True)
-def scan(model, md, p, sig, ws, step, armed, has_floor, floors, t0, t1, samples, max_refine,
-         event_tol, tol, stats):
+@borrowing
+def scan(model, md, p, sig, ws, sw, step, armed, has_floor, floors, t0, t1, samples,
+         max_refine, event_tol, tol, stats):
     """``_Run.scan``: the earliest cluster of monitors reaching zero in ``[t0, t1]``.
 
-    Returns ``(n, rows, times, grazing, new_armed)``; ``n == 0`` when nothing fires.
+    Returns ``n``, the number of monitors that fire (0: none), whose rows, times and
+    grazing flags are ``sw.rows[:n]``, ``sw.at[:n]`` and ``sw.grazing[:n]``; whether each
+    monitor is armed after the step is in ``sw.armed``. :data:`OUTGROWN` (nothing else
+    changed): the step's samples need a larger workspace.
     """
     M = armed.size
-    new_armed = armed.copy()
-    rows = np.empty(M, dtype=np.int64)
-    times = np.empty(M)
-    graz = np.zeros(M, dtype=np.bool_)
     if M == 0:
-        return 0, rows, times, graz, new_armed
-    tau, phi, dphi, refinements = sample_step(model, md, p, sig, ws, step, t0, t1, samples,
-                                              max_refine, tol)
+        return 0
+    new_armed, rows, times, graz = sw.armed[:M], sw.rows[:M], sw.at[:M], sw.grazing[:M]
+    k, refinements = sample_step(model, md, p, sig, ws, sw, step, t0, t1, samples,
+                                 max_refine, tol)
+    if k == OUTGROWN:
+        return OUTGROWN
+    tau = sw.sorted_times[:k]
+    phi = sw.sorted_values[:M * k].reshape((M, k))
+    dphi = sw.sorted_slopes[:M * k].reshape((M, k))
+    for r in range(M):  # (element loops: a slice assignment needs numba's runtime)
+        new_armed[r] = armed[r]
+        graz[r] = False
     stats[1] += refinements
     xtol = xtol_at(event_tol, min(abs(t0), abs(t1)))
     width = CLUSTER_WIDTH * xtol
     K = tau.size - 1
-    starts = np.full(M, np.inf)
-    use = np.zeros(M, dtype=np.bool_)
+    starts, use = sw.starts[:M], sw.searched[:M]
+    for r in range(M):
+        starts[r] = np.inf
+        use[r] = False
     for r in range(M):
         first = -1
         sinking = False
@@ -742,7 +793,8 @@ def scan(model, md, p, sig, ws, step, armed, has_floor, floors, t0, t1, samples,
         elif sinking or rising:
             starts[r] = t0
             use[r] = True
-    order = np.argsort(starts, kind="mergesort")
+    order = sw.rank
+    _stable_order(starts, M, order)
     n = 0
     earliest = np.inf
     for oi in range(M):
@@ -759,7 +811,7 @@ def scan(model, md, p, sig, ws, step, armed, has_floor, floors, t0, t1, samples,
                 rows[n], times[n], graz[n] = r, earliest, False
                 n += 1
                 continue
-        found, t_hit, g, arm = _first_trigger(model, md, p, sig, ws, step, r, tau, phi[r],
+        found, t_hit, g, arm = _first_trigger(model, md, p, sig, ws, sw, step, r, tau, phi[r],
                                               dphi[r], armed[r], xtol, tol, has_floor[r],
                                               floors[r], earliest, width)
         new_armed[r] = arm
@@ -768,11 +820,11 @@ def scan(model, md, p, sig, ws, step, armed, has_floor, floors, t0, t1, samples,
             n += 1
             earliest = min(earliest, t_hit)
     if n == 0:
-        return 0, rows, times, graz, new_armed
+        return 0
     m = 0
     for i in range(n):
         if times[i] <= earliest + width:
             rows[m], times[m], graz[m] = rows[i], times[i], graz[i]
             m += 1
     stats[2] += m
-    return m, rows, times, graz, new_armed
+    return m
