@@ -22,7 +22,7 @@ the position recorded at the sensor event, ``x_e``. Checks:
    ``hybridlab.reachability.lifting``);
 3. simulations from the corners of the initial box lie in the flowpipe at 161 instants.
 
-``--t-end 12`` proves all four specs over the whole 12 s manoeuvre (about 40 s on two
+``--t-end 12`` proves all four specs over the whole 12 s manoeuvre (about 30 s on two
 cores; ``docs/verification.md``, Limits, has the numbers). Run
 ``python examples/reach_trolley_linear.py [--t-end T] [--plot FILE.png]``. Exits with
 status 1 if a check fails.

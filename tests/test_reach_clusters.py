@@ -76,3 +76,40 @@ def test_a_tracking_error_survives_the_jump_as_a_sweep():
     r = reach(model, initial=box, t_end=1.5, step=0.05, clustering="sweep")
     for t, z in _follower_runs([(a, b) for a in (0.0, 0.5) for b in (0.0, 0.5)]):
         assert r.covers(t, z, "latched").all()
+
+
+def test_a_span_taken_aside_leaves_the_flowpipes_next_step_as_it_was():
+    # a run of guard hits is joined as one step of the run's length (FlowStepper.span); that
+    # step must not change the remainder guess or the bounds the flowpipe carries
+    from hybridlab.reachability.nonlinear import FlowStepper
+    from hybridlab.reachability.options import ReachOptions
+    from hybridlab.reachability.system import build_system
+
+    c = hybridlab.compile_model(hybridlab.loads_model('''
+name = "vdp"
+states = { x = 1.4, y = 2.4 }
+[modes.m]
+flow = { x = "y", y = "(1 - x**2)*y - x" }
+[initial]
+mode = "m"
+'''))
+    system = build_system(c, c.parameter_vector(), {}, {})
+    P0 = Zonotope([1.4, 2.4], [[0.05, 0.0], [0.0, 0.05]])
+    plain = FlowStepper(system, "m", ReachOptions())
+    P1, _ = plain.step(P0, 0.01)
+    expected = plain.step(P1, 0.01)
+    aside = FlowStepper(system, "m", ReachOptions())
+    Q1, _ = aside.step(P0, 0.01)
+    whole = aside.span(P0, 0.05)
+    got = aside.step(Q1, 0.01)
+    for a, b in zip(expected, got, strict=True):
+        assert np.array_equal(a.center, b.center) and np.array_equal(a.generators, b.generators)
+    # and the span holds every state reached from P0 within 0.05 s
+    def vdp(t, z):
+        return [z[1], (1 - z[0] ** 2) * z[1] - z[0]]
+
+    for x0 in (1.35, 1.45):
+        for y0 in (2.35, 2.45):
+            path = solve_ivp(vdp, (0.0, 0.05), [x0, y0], t_eval=np.linspace(0.0, 0.05, 11),
+                             rtol=1e-10, atol=1e-12).y.T
+            assert whole.contains_points(path).all()

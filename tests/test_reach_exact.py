@@ -221,6 +221,17 @@ def _slowing_block(v0: float, t: float) -> tuple[float, float]:
     return v0 * s + 0.5 * a * s * s, v0 + a * s
 
 
+def _slowing_block_inside(r, starts: np.ndarray, t_end: float) -> None:
+    """Every trajectory of the slowing block from ``(0, v0)``, ``v0`` in ``starts``, lies in
+    each reach set of ``r`` at both ends of its time interval."""
+    for s in r.sets:
+        (x_lo, x_hi), (v_lo, v_hi) = s.bounds()
+        for t in (max(s.t[0], 0.0), min(s.t[1], t_end)):
+            for v0 in starts:
+                x, v = _slowing_block(float(v0), t)
+                assert x_lo - 1e-12 <= x <= x_hi + 1e-12 and v_lo - 1e-12 <= v <= v_hi + 1e-12
+
+
 def test_a_moving_set_comes_to_rest_on_the_surface_with_the_sign_free():
     # v' = 0.5 - 2 sign(v): friction beats the push, so from v in [-0.1, 0.1] every state
     # comes to rest by t = 0.1 / 1.5 and is held there. With the sign free (no phases) the
@@ -233,12 +244,23 @@ def test_a_moving_set_comes_to_rest_on_the_surface_with_the_sign_free():
     rest = [s.bounds() for s in r.sets if s.t[0] >= 0.1]
     assert rest and max(abs(v) for b in rest for v in b[1]) < 1e-12
     assert r.bounds["x"][0] > -0.01 and r.bounds["x"][1] < 0.01
-    for s in r.sets:  # trajectories from the initial interval stay inside
-        (x_lo, x_hi), (v_lo, v_hi) = s.bounds()
-        for t in (max(s.t[0], 0.0), min(s.t[1], 1.0)):
-            for v0 in np.linspace(-0.1, 0.1, 21):
-                x, v = _slowing_block(float(v0), t)
-                assert x_lo - 1e-12 <= x <= x_hi + 1e-12 and v_lo - 1e-12 <= v <= v_hi + 1e-12
+    _slowing_block_inside(r, np.linspace(-0.1, 0.1, 21), 1.0)
+
+
+
+def test_a_set_below_an_attracting_surface_comes_to_rest_on_it_by_the_side_rule():
+    # from v in [-0.1, 0] every state is below v = 0 or on it: the side rule (sign -1 off
+    # the surface, Filippov's equivalent control on it) steps it, and as the surface also
+    # attracts from below (v' = 2.5 there), that bound is carried too: every state rests by
+    # t = 0.04 and the set is put on the surface (with the sign merely in [-1, max eq],
+    # v fell below -0.1 and the set came to lie across the surface, its sign free)
+    r = reach(hybridlab.loads_model(SLOWING_BLOCK), initial={"v": (-0.1, 0.0)}, t_end=0.5,
+              step=0.01)
+    assert r.complete
+    rest = [s.bounds() for s in r.sets if s.t[0] >= 0.06]
+    assert rest and max(abs(v) for b in rest for v in b[1]) < 1e-12
+    assert r.bounds["v"][0] >= -0.1 - 1e-9 and r.bounds["x"][0] > -0.006   # exact: -0.002
+    _slowing_block_inside(r, np.linspace(-0.1, 0.0, 11), 0.5)
 
 
 CLOCKED = """

@@ -57,6 +57,12 @@ CASES = {
     "trolley_sensor_event": ("trolley", None, {"phi": (-0.01, 0.01), "omega": (-0.05, 0.05)},
                              {}, 0.55, {"step": 0.00125, "clustering": "sweep",
                                         "fixed": {"p_1": 0.1}}),
+    # the stop-and-return's sensor event at a step where the run's sets do not share their
+    # generators' layout (reduced step by step): the run is joined as one step of its
+    # whole length, cut to the frame of the oriented hull (cart and pendulum
+    # correlations kept through the jump), and the cart brakes
+    "trolley_detection_span": ("trolley", None, {"phi": (-0.01, 0.01), "omega": (-0.05, 0.05)},
+                               {}, 0.76, {"step": 0.000459559, "clustering": "sweep"}),
     # the linearised trolley through its turn and return into holding: braking, stopped
     # with the friction's sign free while the set lies across v = 0, the return's
     # acceleration, its cruise entered at the deceleration guard's equality (the entry set
@@ -68,7 +74,8 @@ CASES = {
 }
 #: samples per trajectory; the trolley's 18-state zonotopes need one LP per membership test
 GRID_POINTS = {"trolley_step_2ms": 301, "trolley_break_away_30ms": 301,
-               "trolley_sensor_event": 221, "trolley_linear_turn": 401}
+               "trolley_sensor_event": 221, "trolley_detection_span": 161,
+               "trolley_linear_turn": 401}
 
 
 def _starts(box: dict, params: dict, n_random: int, seed: int):

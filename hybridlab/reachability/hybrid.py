@@ -80,6 +80,10 @@ from hybridlab.symbolic.intervals import IntervalFunction
 
 __all__ = ["Item", "run_analysis"]
 
+Hit = tuple[Zonotope, float, float, Zonotope, float]
+"""A step whose set may fire a guard: its set, its time interval, its start set and its
+length."""
+
 #: a guard's crossing instant is landed on when known within this fraction of the step
 _SHARP = 1e-3
 #: a guard row's spread over a time-point set, relative to its size, below which its
@@ -404,8 +408,8 @@ class _Analysis:
             rows = system.guards[tr.index]
             rng = rows.range(item.P)
             leaving[tr.index] = {i for i in range(rows.size) if rng[i, 1] <= 1e-12 * scale}
-        clusters: dict[int, list[tuple[Zonotope, float, float]]] = {tr.index: []
-                                                                     for tr in guarded}
+        # each guard's current run of hits: (step set, its times, the step's start set, r)
+        clusters: dict[int, list[Hit]] = {tr.index: [] for tr in guarded}
         P = item.P
         # which guards no entry state fires at once: there, every firing comes up from below
         from_below: dict[int, bool] = {}
@@ -513,7 +517,7 @@ class _Analysis:
                 elif leaving[tr.index]:
                     leaving[tr.index] = set()
                 if may:
-                    clusters[tr.index].append((H, t0, t1))
+                    clusters[tr.index].append((H, t0, t1, P, r))
                     # every trajectory meets the guard during the step, or at its end
                     if rows.size == 0 or bool(np.all(rng[:, 0] > 0)) or (
                             P_next is not None and bool(np.all(rows.range(P_next)[:, 0] > 0))):
@@ -577,7 +581,7 @@ class _Analysis:
             # the run's length: from its first step's start to its last step's end
             length = run[-1][3] - run[0][2] - (item.t_hi - item.t_lo)
             try:
-                joined = stepper.step(run[0][0], length)[1]
+                joined = stepper.span(run[0][0], length)
             except (StepError, SetError):
                 box = hull([H.bounds() for _, H, _, _ in run])
                 joined = Box(box[:, 0], box[:, 1]).to_zonotope()
@@ -864,16 +868,15 @@ class _Analysis:
         self._fire(item, tr, _within(_within(inside, guard), invariant), item.t_lo, item.t_hi)
         return P.intersect_halfspace(a[i], -e_lo[i])  # g_i <= 0
 
-    def _jump(self, item: Item, tr, cluster: list[tuple[Zonotope, float, float]],
-              from_below: bool) -> None:
+    def _jump(self, item: Item, tr, cluster: list[Hit], from_below: bool) -> None:
         guard = self.system.guards[tr.index]
         invariant = self.system.modes[item.mode].invariants
         # a trajectory fires at its entry, or where the guard's last row to hold comes up
         # to 0 (_firing_surface): a step set inside the guard holds no firing of its own,
         # and one with a single unmet row fires on that row's surface; the first step set
         # also holds the entry instant, unless no entry state fires there (from_below)
-        pieces, sets, raw, rows = [], [], [], []
-        for H, t0, t1 in cluster:
+        pieces, sets, raw, rows, hit = [], [], [], [], []
+        for k, (H, t0, t1, _, _) in enumerate(cluster):
             row = -1
             if guard.size and (from_below or t0 != item.t_lo):
                 unmet = np.flatnonzero(guard.range(H)[:, 0] < 0)
@@ -887,18 +890,20 @@ class _Analysis:
                 sets.append(on)
                 raw.append(H)
                 rows.append(row)
+                hit.append(k)
         A, b = _linear_rows(guard, invariant)
         for group in groups(pieces, self.options.clustering):
             t_lo = min(pieces[k][1] for k in group)
             t_hi = max(pieces[k][2] for k in group)
             box = hull([pieces[k][0] for k in group])
-            swept = (sweep_hull([raw[k] for k in group])
-                     if self.options.clustering == "sweep" else None)
-            if swept is not None and not _frames_alike(swept, hull([raw[k].bounds()
-                                                                    for k in group])):
-                swept = None  # the sets' generators do not correspond
-            if swept is not None:
-                pre = _within(_within(swept, guard), invariant)
+            joined: Zonotope | None = None
+            if self.options.clustering == "sweep":
+                joined = sweep_hull([raw[k] for k in group])
+                if joined is not None and not _frames_alike(joined, hull([raw[k].bounds()
+                                                                         for k in group])):
+                    joined = None  # the sets' generators do not correspond
+            if joined is not None:
+                pre = _within(_within(joined, guard), invariant)
                 row = rows[group[0]]
                 if pre is not None and row >= 0 and all(rows[k] == row for k in group):
                     pre = _firing_surface(pre, guard, row)
@@ -907,7 +912,42 @@ class _Analysis:
                                     [pieces[k][0] for k in group])
             else:
                 pre = Box(box[:, 0], box[:, 1]).to_zonotope()
+            if joined is None and pre is not None and self.options.clustering == "sweep":
+                row = rows[group[0]] if all(rows[k] == rows[group[0]] for k in group) else -1
+                pre = self._spanned(item, cluster[hit[group[0]]:hit[group[-1]] + 1], pre,
+                                    guard, invariant, row)
             self._fire(item, tr, pre, t_lo, t_hi)
+
+    def _spanned(self, item: Item, run: list[Hit], pre: Zonotope, guard: Rows,
+                 invariant: Rows, row: int) -> Zonotope:
+        """``pre``, a join of a run's firing states, tightened by the correlations the flow
+        gives them: one step of the run's whole length from its first start set
+        (:meth:`FlowStepper.span`, which holds every state of the run) cut to ``pre``'s
+        frame (its support along each axis and each of its generators' dual directions),
+        to the guard and invariant, and to the surface of guard row ``row`` where every
+        step of the run fires on it (``-1``: none); ``pre`` itself where that step fails.
+        Both hold every firing state, so their intersection does."""
+        try:
+            Z: Zonotope | None = self.stepper(item.mode, item.phase).span(
+                run[0][3], sum(hit[4] for hit in run))
+        except (StepError, SetError):
+            return pre
+        with np.errstate(all="ignore"):
+            duals = np.linalg.pinv(pre.generators).T if pre.generators.size else None
+        directions = [np.eye(pre.dim)]
+        if duals is not None and np.all(np.isfinite(duals)):
+            directions.append(duals.T)
+        D = np.vstack(directions)
+        D = D[np.any(D != 0, axis=1)]
+        highs, lows = pre.supports(D), -pre.supports(-D)
+        for d, lo, hi in zip(D, lows, highs, strict=True):
+            if Z is None:
+                return pre
+            Z = Z.intersect_slab(d, lo, hi)
+        Z = _within(_within(Z, guard), invariant) if Z is not None else None
+        if Z is not None and row >= 0:
+            Z = _firing_surface(Z, guard, row)
+        return pre if Z is None else Z
 
     def _fire(self, item: Item, tr, pre: Zonotope | None, t_lo: float, t_hi: float) -> None:
         """Reset ``pre`` (``None``: nothing fires) and put it on the waiting list."""

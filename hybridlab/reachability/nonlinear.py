@@ -241,6 +241,43 @@ class FlowStepper(SurfaceSteps):
             P_next, H = stepped
         return self._attractive_cut(P, P_next, H, sig, sig[:, 0] < sig[:, 1], r)
 
+    def span(self, P: Zonotope, length: float) -> Zonotope:
+        """Every state reached from ``P`` within ``length``: the set of one step of that
+        length, taken aside, so the flowpipe's own next step is the one it would have been
+        (the affine chain it continues, the remainder guess and the bounds it carries are
+        left as they were).
+
+        A run of steps joined this way keeps the correlations the flow gives its states,
+        whatever the layouts of the run's own sets.
+
+        Raises
+        ------
+        StepError
+            As :meth:`step` does.
+
+        Examples
+        --------
+        >>> import hybridlab
+        >>> from hybridlab.reachability.system import build_system
+        >>> c = hybridlab.compile_model(hybridlab.load_model("models/thermostat.toml"))
+        >>> stepper = FlowStepper(build_system(c, c.parameter_vector(), {}, {}), "heat",
+        ...                       ReachOptions())
+        >>> whole = stepper.span(Zonotope([20.0], [[0.1]]), 0.3)
+        >>> P1, H1 = stepper.step(Zonotope([20.0], [[0.1]]), 0.1)
+        >>> bool(whole.bounds()[0, 1] >= H1.bounds()[0, 1])
+        True
+        """
+        kept = (self._chain, self._chain_end, self._chain_set, self._chain_signs,
+                self._chain_project, self._approach, self._taylor_set, self._taylor_end,
+                self._taylor_origin, self._failed_bend,
+                {name: r.copy() for name, r in self._remainders.items()})
+        try:
+            return self.step(P, length)[1]
+        finally:
+            (self._chain, self._chain_end, self._chain_set, self._chain_signs,
+             self._chain_project, self._approach, self._taylor_set, self._taylor_end,
+             self._taylor_origin, self._failed_bend, self._remainders) = kept
+
     def _covers(self, chain: AffineChain, ranges: np.ndarray, sig: np.ndarray,
                 P: Zonotope) -> bool:
         """Whether ``chain``, built for the sign ``ranges``, continues over ``P``, whose

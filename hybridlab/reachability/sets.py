@@ -403,7 +403,16 @@ class Zonotope:
         from scipy.optimize import linprog
 
         res = linprog(np.zeros(m), A_ub=A, b_ub=rhs, bounds=[(-1, 1)] * m, method="highs")
-        return bool(res.status == 0)
+        if res.status == 0:
+            return True
+        # HiGHS can call that thin feasible set infeasible for a point on a face where many
+        # factors sit at their bounds; the least scaled distance, always feasible, decides
+        one = np.ones((len(w), 1))
+        A = np.vstack([np.hstack([Gs, -one]), np.hstack([-Gs, -one])])
+        cost = np.r_[np.zeros(m), 1.0]
+        res = linprog(cost, A_ub=A, b_ub=np.concatenate([ds, -ds]),
+                      bounds=[(-1, 1)] * m + [(0, None)], method="highs")
+        return bool(res.status == 0 and res.fun <= float(np.min(w)) * tol)
 
     def intersect_halfspace(self, a: ArrayLike, b: float) -> Zonotope | None:
         """A zonotope containing ``Z ∩ {a . x <= b}`` (``None`` if that is empty).

@@ -281,6 +281,9 @@ class SurfaceSteps:
                     P_next = P_next.intersect_slab(a, lo, hi) or P_next
             free = (used[:, 0] == -1.0) & (used[:, 1] == 1.0)
             free &= ~forced
+            # a side's rule keeps its states from crossing; where the surface attracts
+            # them from their side as well, they come to rest on it (the same cut)
+            free[[k for k, side in plan.items() if side != 0.0]] = True
             return self._attractive_cut(P, P_next, H, used, free, r)
         return None
 

@@ -475,9 +475,13 @@ def check(
                     until = until if deadline is None else min(until, deadline)
                 clustered = attempt({**best.stage, "clustering": clustering}, until)
                 complete = clustered.result.complete
+                further = clustered.reached(problem.t_start, problem.t_end)
+                # both failed at the same instant: before any join they differ in, so the
+                # comparison says nothing; the sweep stays for the refinements below (a
+                # smaller step that gets past that instant meets the joins with it)
+                tie = not (complete or best.result.complete) and further == reached
                 if (clustered.proved and complete or complete and clustered.lower > best.lower
-                        or not best.result.complete
-                        and clustered.reached(problem.t_start, problem.t_end) > reached):
+                        or not best.result.complete and further > reached or tie):
                     best = clustered
                 if best.proved and best.result.complete:
                     break
