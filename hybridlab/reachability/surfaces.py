@@ -272,17 +272,11 @@ class SurfaceSteps:
                         revised = True
             if revised:
                 continue
-            for k, side in plan.items():
-                if side != 0.0:
-                    a, b = m.switches.a[k], m.switches.b[k]
-                    lo = min(0.0, rng[k, 0]) - b if side > 0 else -np.inf
-                    hi = max(0.0, rng[k, 1]) - b if side < 0 else np.inf
-                    H = H.intersect_slab(a, lo, hi) or H
-                    P_next = P_next.intersect_slab(a, lo, hi) or P_next
             free = (used[:, 0] == -1.0) & (used[:, 1] == 1.0)
             free &= ~forced
-            # a side's rule keeps its states from crossing; where the surface attracts
-            # them from their side as well, they come to rest on it (the same cut)
+            # a side's rule keeps its states from crossing (its rate, checked above, makes
+            # the cut hold); where the surface attracts them from their side as well, they
+            # come to rest on it: the same cut
             free[[k for k, side in plan.items() if side != 0.0]] = True
             return self._attractive_cut(P, P_next, H, used, free, r)
         return None
