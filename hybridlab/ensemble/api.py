@@ -203,28 +203,29 @@ def _submit(executor: Any, chunks: Sequence[Chunk], collect: Any,
     run; worker processes get Ctrl-C themselves.
     """
     stop = threading.Event()
-    futures = {(executor.submit(run_chunk, chunk, stop) if in_process
-                else executor.submit(run_chunk, chunk)): chunk for chunk in chunks}
     lost: list[Chunk] = []
-    pending = set(futures)
+    pending: dict[cf.Future, Chunk] = {}  # submitted, not collected yet
     try:
-        for future in cf.as_completed(futures):
-            pending.discard(future)
+        for chunk in chunks:  # in the try: Ctrl-C may come while the first chunks run
+            pending[executor.submit(run_chunk, chunk, stop) if in_process
+                    else executor.submit(run_chunk, chunk)] = chunk
+        for future in cf.as_completed(list(pending)):
+            chunk = pending.pop(future)
             try:
                 outcome = future.result()
             except cf.process.BrokenProcessPool:
-                lost.append(futures[future])
+                lost.append(chunk)
             except Exception as exc:
                 text = " ".join(str(exc).split())
-                collect(futures[future], None, f"{type(exc).__name__}: {text}")
+                collect(chunk, None, f"{type(exc).__name__}: {text}")
             else:
-                collect(futures[future], outcome)
+                collect(chunk, outcome)
     except KeyboardInterrupt:
         if in_process:  # the running chunks start no further run; keep what they finished
             stop.set()
-            for future in pending:
+            for future, chunk in pending.items():
                 if not future.cancel() and (outcome := _finished(future)) is not None:
-                    collect(futures[future], outcome)
+                    collect(chunk, outcome)
         raise
     return lost
 
