@@ -262,13 +262,16 @@ def i_recip(al: float, ah: float) -> tuple[float, float]:
 
 
 def i_div(al: float, ah: float, bl: float, bh: float) -> tuple[float, float]:
-    """``a / b``; the whole line when ``b`` contains zero.
+    """``a / b``; the whole line when ``b`` contains zero, unless ``a`` is 0: then 0 (with
+    its rounding), the quotient wherever it is defined.
 
     Examples
     --------
     >>> lo, hi = i_div(1.0, 1.0, 3.0, 3.0)
     >>> lo < 1 / 3 < hi
     True
+    >>> i_div(1.0, 2.0, -1.0, 1.0), i_div(0.0, 0.0, -1.0, 1.0)
+    ((-inf, inf), (-1e-300, 1e-300))
     """
     rl, rh = i_recip(bl, bh)
     return i_mul(al, ah, rl, rh)
