@@ -19,7 +19,7 @@ demo: $(STAMP)
 
 # two test workers on two cores, each with one BLAS thread: numpy's OpenBLAS would otherwise
 # start a thread per core in each worker, and the reachability tests' linear algebra,
-# oversubscribed, made the suite take about 1.4 times as long (measured 270 s against 190 s)
+# oversubscribed, made the suite take about 1.5 times as long (measured 270 s against 181 s)
 test: $(STAMP)
 	$(BIN)/ruff check hybridlab tests examples benchmarks
 	$(BIN)/python -m mypy
