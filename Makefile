@@ -10,8 +10,9 @@ $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[dev]"
-	@echo "compiling the numba simulation kernel (once per checkout, two to three minutes)"
+	@echo "compiling the numba simulation kernel and interval loop (once per checkout, two to three minutes)"
 	$(BIN)/python -c "import hybridlab; hybridlab.simulate('models/bouncing_ball.toml', t_end=1.0)"
+	$(BIN)/python -c "from hybridlab.symbolic import interval_machine; interval_machine.warm()"
 	touch $(STAMP)
 
 demo: $(STAMP)

@@ -40,6 +40,7 @@ import numba
 import numpy as np
 
 from hybridlab._files import replace_text
+from hybridlab._numba_cache import refresh_cache
 from hybridlab.errors import ZenoError
 from hybridlab.simulation import engine
 from hybridlab.simulation.compiled.codegen import (
@@ -93,42 +94,11 @@ def _kernel_cache_path() -> Path:
     return Path(path) if path else Path(__file__).parent / "__pycache__"
 
 
-def _refresh_kernel_cache(cache: Path) -> bool:
-    """Drop the kernel's numba cache in ``cache`` when any of its modules changed.
-
-    numba validates a cached function against its own source file only, so
-    after an edit of, say, ``locate.py`` or of a rule in ``rules.py`` it would load a
-    stale kernel. The
-    digest of the kernel's sources is kept next to the cache. Returns whether
-    the cache was dropped.
-
-    Examples
-    --------
-    >>> import tempfile
-    >>> with tempfile.TemporaryDirectory() as folder:
-    ...     stale = Path(folder, "kernel.run_kernel-150.py311.nbi")
-    ...     _ = stale.write_bytes(b"")
-    ...     dropped = _refresh_kernel_cache(Path(folder)), _refresh_kernel_cache(Path(folder))
-    ...     dropped, stale.exists()
-    ((True, False), False)
-    """
-    here = Path(__file__).parent.parent
-    digest = hashlib.sha256(b"".join((here / f"{name}.py").read_bytes()
-                                     for name in _KERNEL_SOURCES)).hexdigest()
-    stamp = cache / "kernel-sources.sha256"
-    try:
-        if stamp.is_file() and stamp.read_text() == digest:
-            return False
-        for f in [*cache.glob("*.nbi"), *cache.glob("*.nbc")]:
-            f.unlink(missing_ok=True)
-        cache.mkdir(parents=True, exist_ok=True)
-        stamp.write_text(digest)
-    except OSError:  # numba cannot write there either: it does not cache the kernel
-        return False
-    return True
-
-
-_refresh_kernel_cache(_kernel_cache_path())
+# numba checks a cached function against its own source file only: after an edit of,
+# say, locate.py or of a rule in rules.py it would load a stale kernel
+refresh_cache(_kernel_cache_path(),
+              [Path(__file__).parent.parent / f"{name}.py" for name in _KERNEL_SOURCES],
+              "kernel-sources.sha256")
 
 
 def cache_dir() -> Path:

@@ -52,7 +52,7 @@ from hybridlab.simulation.compiled.opcodes import (
     OP_SWITCH_GRAD,
     OP_SWITCH_LIE,
 )
-from hybridlab.symbolic import interval_arithmetic
+from hybridlab.symbolic import interval_arithmetic, interval_machine
 from hybridlab.symbolic.compile import CompiledModel
 from hybridlab.symbolic.printing import PrintError, lower, scalar_printer
 
@@ -63,7 +63,8 @@ _BOX_OPS = (OP_GUARD_BOX, OP_INV_BOX, OP_SWITCH_BOX)
 #: the generated module's name hashes its text: this digest makes it change with the
 #: interval functions it calls (numba checks a cached function against its own file only)
 _INTERVAL_DIGEST = hashlib.sha256(b"".join(
-    Path(path).read_bytes() for path in (interval_ops.__file__, interval_arithmetic.__file__)
+    Path(path).read_bytes() for path in (interval_ops.__file__, interval_arithmetic.__file__,
+                                         interval_machine.__file__)
 )).hexdigest()[:16]
 
 

@@ -3,7 +3,9 @@
 The generated models' box functions (:mod:`.box_printer`) call these to enclose
 conditions and switching functions over a step (:mod:`.bounds`). They are the
 very functions reachability and the mode graph's checks run in Python, with the
-same rounding policy, each compiled with its helpers bound to compiled helpers.
+same rounding policy, each compiled with its helpers bound to compiled helpers
+(:data:`~hybridlab.symbolic.interval_machine.ARITHMETIC`, which also runs
+reachability's interval programs compiled).
 An empty result (an operand outside a function's domain) is the pair
 ``(nan, nan)``; the box functions bound it by the whole line (:func:`i_bound`),
 which proves nothing.
@@ -20,29 +22,11 @@ True
 
 from __future__ import annotations
 
-import types
 from collections.abc import Callable
-from typing import Any
-
-import numba
 
 from hybridlab.symbolic import interval_arithmetic as _arithmetic
+from hybridlab.symbolic.interval_machine import ARITHMETIC as _OPS
 
-
-def _compiled() -> dict[str, Any]:
-    """Every function of the arithmetic jitted, calling the jitted versions of the others."""
-    namespace: dict[str, Any] = {name: value for name, value in vars(_arithmetic).items()
-                                 if not isinstance(value, types.FunctionType)}
-    for name, f in vars(_arithmetic).items():
-        if isinstance(f, types.FunctionType) and f.__module__ == _arithmetic.__name__:
-            rebound = types.FunctionType(f.__code__, namespace, name, f.__defaults__,
-                                         f.__closure__)
-            rebound.__doc__ = f.__doc__
-            namespace[name] = numba.njit(cache=True)(rebound)
-    return namespace
-
-
-_OPS = _compiled()
 __all__ = [name for name in _arithmetic.__all__ if name.startswith("i_")]
 
 
