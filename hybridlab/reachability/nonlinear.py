@@ -518,8 +518,8 @@ def _quadratic_bound(h_lo: np.ndarray, h_hi: np.ndarray, D: np.ndarray,
     correlated so that they cancel (a stiff controller's ``x_ref - x``). The products are
     rounded up by :data:`~.rounding.PRODUCT_SLACK` of the products of magnitudes.
 
-    The form's sum is quadratic in the number of generators; :func:`_form_bound` takes it
-    over a reduced zonotope where a step set has many.
+    The form's sum is quadratic in the number of generators; where a step set has many,
+    it is taken over a reduced zonotope (:func:`_form_generators`).
     """
     nz, nw, _ = h_lo.shape
     mid = 0.5 * (h_lo + h_hi)
@@ -529,27 +529,26 @@ def _quadratic_bound(h_lo: np.ndarray, h_hi: np.ndarray, D: np.ndarray,
     if rows.size == 0:
         return bound
     used = np.flatnonzero(np.any(mid[rows] != 0, axis=(0, 1)))
-    D = D[used]
-    D = D[:, np.any(D != 0, axis=0)]
+    D = _form_generators(D[used])
     mass = np.abs(D).sum(axis=1)  # the products' magnitudes sum to mass' |M| mass
     for i in rows:
         M = mid[i][np.ix_(used, used)]
         # d' M d = d' (M + M')/2 d: the symmetric part's form has half the distinct entries
-        quad = _form_bound(0.5 * (M + M.T), D) + PRODUCT_SLACK * float(mass @ np.abs(M) @ mass)
+        quad = _form_abs_sum(0.5 * (M + M.T), D) + PRODUCT_SLACK * float(mass @ np.abs(M) @ mass)
         bound[i] += 0.5 * quad
     return np.nextafter(bound, np.inf)
 
 
 FORM_ORDER = 40
 """Generators per variable the Lagrange remainder's quadratic form is summed over at most
-(:func:`_form_bound`)."""
+(:func:`_form_generators`)."""
 
-def _form_bound(S: np.ndarray, D: np.ndarray) -> float:
-    """``sum_jk |(E' S E)_jk|`` for ``S`` symmetric, an upper bound of the same sum over
-    ``D``: ``E = D`` where ``D`` has at most :data:`FORM_ORDER` columns per row, else the
-    generators of the zonotope ``{D beta}`` reduced to that order (Girard's box of its
-    smallest generators, rounded up), which holds every ``D beta``, so the form's bound
-    over it holds over ``D``'s.
+def _form_generators(D: np.ndarray) -> np.ndarray:
+    """Generators ``E`` of a zonotope that holds every ``D beta`` (``|beta| <= 1``), for
+    the quadratic form's sum: ``D`` without its zero columns where it has at most
+    :data:`FORM_ORDER` columns per row, else that zonotope reduced to that order (Girard's
+    box of its smallest generators, rounded up). The form's bound over ``E`` holds over
+    ``D``, since every ``D beta`` is an ``E gamma``.
 
     The sum is quadratic in the number of columns (a step set may have over a thousand,
     of which the Hessian's few variables see most as tiny): on the nonlinear steps of a
@@ -562,14 +561,15 @@ def _form_bound(S: np.ndarray, D: np.ndarray) -> float:
     >>> rng = np.random.default_rng(0)
     >>> D = np.hstack([rng.normal(size=(2, 60)), 1e-6 * rng.normal(size=(2, 900))])
     >>> S = np.array([[1.0, 0.5], [0.5, -2.0]])
-    >>> exact = _form_abs_sum(S, D)
-    >>> bool(exact <= _form_bound(S, D) <= 1.001 * exact)
-    True
+    >>> E = _form_generators(D)
+    >>> E.shape, bool(_form_abs_sum(S, D) <= _form_abs_sum(S, E) <= 1.001 * _form_abs_sum(S, D))
+    ((2, 80), True)
     """
+    D = D[:, np.any(D != 0, axis=0)]
     n, g = D.shape
-    if g > FORM_ORDER * n:
-        D = Zonotope(np.zeros(n), D).reduce(FORM_ORDER).generators
-    return _form_abs_sum(S, D)
+    if g <= FORM_ORDER * n:
+        return D
+    return Zonotope(np.zeros(n), D).reduce(FORM_ORDER).generators
 
 
 _BLOCK = 256
