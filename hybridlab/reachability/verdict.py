@@ -347,13 +347,18 @@ def check(
 
     tried: list[str] = []  # the refinements run, for the reason
 
+    max_sets = overrides.get("max_sets", getattr(options, "max_sets", None))
+
     def attempt(stage: dict[str, Any], until: float | None = None, *,
-                stop: bool = False, again: bool = False) -> _Attempt:
+                stop: bool = False, again: bool = False, sets: int | None = None) -> _Attempt:
         """One analysis; ``until`` or ``stop``: it ends at the first set that does not
-        prove every spec; ``again``: a stage already counted in ``tried``."""
+        prove every spec; ``sets``: it ends after that many flowpipe sets (or the caller's
+        ``max_sets``, if fewer); ``again``: a stage already counted in ``tried``."""
         if stage and not again:
             tried.append(_describe(stage))
-        extra = {} if until is None else {"deadline": until}
+        extra: dict[str, Any] = {} if until is None else {"deadline": until}
+        if sets is not None:
+            extra["max_sets"] = sets if max_sets is None else min(sets, int(max_sets))
         result = reach(problem, options=options, executor=executor,
                        stop_unproved=specs if until is not None or stop else (),
                        **{**overrides, **stage, **extra})
@@ -465,15 +470,14 @@ def check(
             # one zonotope per run, which keeps correlations at the cost of one set; then
             # compact groups, more branches. Where a branch failed after a jump (a box of
             # the guard hits may be what made its set too wide) only the sweep is tried,
-            # within _SWEEP_TIME_FACTOR times the failed analysis's time
+            # within _SWEEP_SETS times the failed analysis's sets (a count, so the
+            # machine's speed does not choose the refinement)
             failed = not best.result.complete
             for clustering in ("sweep",) if failed else ("sweep", "auto"):
                 reached = best.reached(problem.t_start, problem.t_end)
-                until = None
-                if failed:
-                    until = time.time() + _SWEEP_TIME_FACTOR * best.result.time_s
-                    until = until if deadline is None else min(until, deadline)
-                clustered = attempt({**best.stage, "clustering": clustering}, until)
+                cap = max(1, int(_SWEEP_SETS * len(best.result.sets))) if failed else None
+                clustered = attempt({**best.stage, "clustering": clustering}, stop=failed,
+                                    sets=cap)
                 complete = clustered.result.complete
                 further = clustered.reached(problem.t_start, problem.t_end)
                 # both failed at the same instant: before any join they differ in, so the
@@ -588,10 +592,10 @@ _STEP_PATIENCE = 2
 """Halvings in a row that do not tighten the failing bound before the refinement stops
 (the bound is not monotone in the step: a finer grid meets a guard differently)."""
 
-_SWEEP_TIME_FACTOR = 3.0
+_SWEEP_SETS = 3.0
 """A result whose branch failed after a jump is tried again with ``clustering="sweep"`` for
-at most this many times its own analysis time (the sweep keeps one set per run, but where a
-model's own transitions fire together its branches can multiply)."""
+at most this many times its own number of flowpipe sets (the sweep keeps one set per run,
+but where a model's own transitions fire together its branches can multiply)."""
 
 @dataclass(frozen=True)
 class _Attempt:
