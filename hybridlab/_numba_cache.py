@@ -9,10 +9,11 @@ drop the cached files when it no longer matches.
 from __future__ import annotations
 
 import hashlib
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-__all__ = ["refresh_cache"]
+__all__ = ["refresh_cache", "tell"]
 
 
 def refresh_cache(folder: Path, sources: Sequence[Path], stamp: str,
@@ -48,3 +49,15 @@ def refresh_cache(folder: Path, sources: Sequence[Path], stamp: str,
     except OSError:
         return False
     return True
+
+
+def tell(message: str) -> None:
+    """One line on a terminal's stderr while something slow happens, such as a first
+    compile (nothing when stderr is piped or a file).
+
+    Examples
+    --------
+    >>> tell("compiling: once per machine")   # a doctest's stderr is no terminal
+    """
+    if sys.stderr.isatty():
+        print(f"hybridlab: {message} ...", file=sys.stderr, flush=True)

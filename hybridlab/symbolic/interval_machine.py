@@ -36,14 +36,13 @@ True
 from __future__ import annotations
 
 import types
-from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numba
 import numpy as np
 
-from hybridlab._numba_cache import refresh_cache
+from hybridlab._numba_cache import refresh_cache, tell
 from hybridlab.symbolic import interval_arithmetic as _arithmetic
 from hybridlab.symbolic.interval_arithmetic import (
     i_abs,
@@ -207,7 +206,7 @@ def _run(code, a, b, k, c, lo, hi, n_args):  # noqa: ANN001, ANN202 - compiled b
         hi[n_args + i] = r[1]
 
 
-def _compile_loop() -> Callable[..., None]:
+def _compile_loop() -> Any:
     """:func:`_run` with its names bound to the compiled arithmetic, jitted."""
     # __name__: numba's cache imports the function's module when it loads the machine code
     namespace = {"__name__": __name__, **{name: ARITHMETIC[name] for name, _ in OPS}}
@@ -248,6 +247,8 @@ class CompiledProgram:
     __slots__ = ("code", "first", "second", "ints", "consts", "n_args", "n_slots", "outputs")
 
     def __init__(self, program: IntervalProgram) -> None:
+        if not _RUN.signatures and not any(_cache_folder().glob("interval_machine._run-*.nbi")):
+            tell("compiling the interval loop: once per machine and version, about 10 s")
         n = len(program.instructions)
         self.code = np.empty(n, dtype=np.int64)
         self.first = np.zeros(n, dtype=np.int64)

@@ -40,7 +40,7 @@ import numba
 import numpy as np
 
 from hybridlab._files import replace_text
-from hybridlab._numba_cache import refresh_cache
+from hybridlab._numba_cache import refresh_cache, tell
 from hybridlab.errors import ZenoError
 from hybridlab.simulation import engine
 from hybridlab.simulation.compiled.codegen import (
@@ -241,7 +241,7 @@ class Prepared:
             types = tuple(map(run_kernel.typeof_pyval, args))
             if types not in run_kernel.overloads:
                 if not any(_kernel_cache_path().glob("kernel.run_kernel-*.nbi")):
-                    _tell("compiling the simulation kernel: once per machine and version, "
+                    tell("compiling the simulation kernel: once per machine and version, "
                           "about 2-3 minutes")
                 run_kernel.compile(types)  # (loads the disk cache, or compiles)
             # numba's CompileResult is a namedtuple made from a list of field names, which
@@ -386,12 +386,6 @@ class SlowToCompile(UnsupportedModel):
     :data:`MAX_AUTO_COMPILE_LINES`)."""
 
 
-def _tell(message: str) -> None:
-    """One line on a terminal's stderr while something slow happens (nothing elsewhere)."""
-    if sys.stderr.isatty():
-        print(f"hybridlab: {message} ...", file=sys.stderr, flush=True)
-
-
 def _compiled_before(name: str) -> bool:
     """Whether numba's cache already holds the generated module ``name``."""
     folder = cache_dir() / "__pycache__"
@@ -430,7 +424,7 @@ def prepare(compiled: CompiledModel, max_lines: int | None = None) -> Prepared:
         raise _SLOW[compiled]
     name = _module_name(source)
     if name not in sys.modules and not _compiled_before(name):
-        _tell(f"compiling model {compiled.model.name!r} ({lines} lines of generated code): "
+        tell(f"compiling model {compiled.model.name!r} ({lines} lines of generated code): "
               "once per model")
     module, hit = _import(source)
     modes = list(compiled.modes.values())
