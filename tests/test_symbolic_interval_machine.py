@@ -121,3 +121,13 @@ def test_bad_bounds_are_named_by_the_loop_s_caller_as_before():
         f(np.array([0.0]), np.array([1.0]))
     with pytest.raises(ValueError, match=r"lo <= hi \(got \[1.0, 0.0\]\)"):
         f(np.array([1.0]), np.array([0.0]))
+
+
+def test_without_numba_every_call_runs_in_python(monkeypatch):
+    from hybridlab.symbolic import intervals
+
+    monkeypatch.setattr(intervals, "_machine", lambda: None)
+    f = IntervalFunction([x * y], [x, y])
+    for _ in range(COMPILE_AFTER + 3):
+        lo, hi = f(np.array([1.0, 2.0]), np.array([2.0, 3.0]))
+    assert f._compiled is None and lo[0] <= 2.0 and hi[0] >= 6.0

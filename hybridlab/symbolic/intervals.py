@@ -450,18 +450,24 @@ class IntervalFunction:
     def __init__(self, exprs: Sequence[sp.Expr], symbols: Sequence[sp.Symbol]) -> None:
         self.exprs = tuple(as_expression(e) for e in exprs)
         self.program = IntervalProgram.of(self.exprs, symbols)
+        # the calls run in Python so far (-1: numba is missing, all of them will), and the
+        # program as the compiled loop's arrays (hybridlab.symbolic.interval_machine) once
+        # COMPILE_AFTER have
         self._calls = 0
-        # the program as the compiled loop's arrays (hybridlab.symbolic.interval_machine),
-        # once it has run COMPILE_AFTER times in Python; False where numba is missing
-        self._compiled: CompiledProgram | bool | None = None
+        self._compiled: CompiledProgram | None = None
 
-    def _compile(self) -> CompiledProgram | bool | None:
+    def _compile(self) -> CompiledProgram | None:
         """Count a call in Python; at the :data:`COMPILE_AFTER`-th, switch to the loop."""
+        if self._calls < 0:
+            return None
         self._calls += 1
         if self._calls < COMPILE_AFTER:
             return None
         machine = _machine()
-        self._compiled = False if machine is None else machine(self.program)
+        if machine is None:
+            self._calls = -1
+            return None
+        self._compiled = machine(self.program)
         return self._compiled
 
     def pairs(self, env: Sequence[Pair]) -> list[Pair]:
@@ -484,13 +490,14 @@ class IntervalFunction:
         :mod:`~hybridlab.symbolic.interval_machine` where numba can be imported: the same
         numbers, about 60 times faster on a large program."""
         compiled = self._compiled if self._compiled is not None else self._compile()
-        if compiled:
+        if compiled is not None:
             lo = np.asarray(lo, dtype=float)
             hi = np.asarray(hi, dtype=float)
             if lo.shape == hi.shape == (self.program.n_args,) and bool(np.all(lo <= hi)):
-                result = compiled(lo, hi)  # type: ignore[operator]
+                result = compiled(lo, hi)
                 if result is not None:
                     return result
+            # bad bounds or an empty result: the Python run below names them
         env = [(float(a), float(b)) for a, b in zip(lo, hi, strict=True)]
         for a, b in env:
             if not a <= b:
