@@ -10,9 +10,10 @@ $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[dev]"
-	@echo "compiling the numba simulation kernel and interval loop (once per checkout, two to three minutes)"
+	@echo "compiling the numba simulation kernel, the interval loop and the two trolley models (once per checkout, three to five minutes)"
 	$(BIN)/python -c "import hybridlab; hybridlab.simulate('models/bouncing_ball.toml', t_end=1.0)"
 	$(BIN)/python -c "from hybridlab.symbolic import interval_machine; interval_machine.warm()"
+	$(BIN)/python -c "import hybridlab; [hybridlab.simulate(f'models/{m}.toml', t_end=0.01) for m in ('trolley', 'trolley_linear')]"
 	touch $(STAMP)
 
 demo: $(STAMP)
