@@ -62,7 +62,7 @@ CASES = {
     # whole length, cut to the frame of the oriented hull (cart and pendulum
     # correlations kept through the jump), and the cart brakes
     "trolley_detection_span": ("trolley", None, {"phi": (-0.01, 0.01), "omega": (-0.05, 0.05)},
-                               {}, 0.76, {"step": 0.000459559, "clustering": "sweep"}),
+                               {}, 0.76, {"step": 0.000919118, "clustering": "sweep"}),
     # the linearised trolley through its turn and return into holding: braking, stopped
     # with the friction's sign free while the set lies across v = 0, the return's
     # acceleration, its cruise entered at the deceleration guard's equality (the entry set

@@ -34,9 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
-from hybridlab.model.expressions import as_expression
+from hybridlab.reachability.derivatives import Derivatives
 from hybridlab.reachability.rounding import PRODUCT_SLACK, SLACK
-from hybridlab.symbolic.functions import _no_impulses
 from hybridlab.symbolic.intervals import IntervalFunction
 
 __all__ = ["ThirdOrder"]
@@ -67,7 +66,8 @@ class ThirdOrder:
     ``x^2 * y``:
 
     >>> x, y = sp.symbols("x y", real=True)
-    >>> third = ThirdOrder.of([x**2 * y, -y], [x, y])
+    >>> from hybridlab.reachability.derivatives import jacobian
+    >>> third = ThirdOrder.of(jacobian([x**2 * y, -y], [x, y]), [x, y])
     >>> third.function.exprs, third.multiplicity.tolist(), third.linear.tolist()
     ((2,), [3.0], [1])
     >>> D = np.array([[0.1, 0.0], [0.0, 0.2]])      # d = D beta, |beta| <= 1
@@ -86,27 +86,29 @@ class ThirdOrder:
     group_rows: np.ndarray
 
     @staticmethod
-    def of(flow: list[sp.Expr] | tuple[sp.Expr, ...],
-           wsyms: list[sp.Symbol] | tuple[sp.Symbol, ...]) -> ThirdOrder | None:
-        """The third derivatives of ``flow`` over ``wsyms`` (``None`` when all are zero)."""
+    def of(jac: sp.Matrix, wsyms: list[sp.Symbol] | tuple[sp.Symbol, ...],
+           derivatives: Derivatives | None = None) -> ThirdOrder | None:
+        """The third derivatives over ``wsyms`` of the flow whose Jacobian is ``jac``
+        (``d f_i / d w_j``, impulses dropped), taken through ``derivatives`` (the ones the
+        flow's Hessian took are not taken again); ``None`` when all are zero."""
+        d = Derivatives() if derivatives is None else derivatives
         ws = list(wsyms)
         entries: list[tuple[int, int, int, int, sp.Expr]] = []
         curved = set()  # indices j with some d2 f_i / dw_j^2 != 0: the flow is not affine in them
-        for i, e in enumerate(flow):
-            e = as_expression(e)
-            for j, wj in enumerate(ws):
-                if wj not in e.free_symbols:
-                    continue
-                dj = sp.diff(e, wj)
+        for i in range(jac.rows):
+            for j in range(len(ws)):
+                dj = jac[i, j]
+                free = dj.free_symbols
                 for k in range(j, len(ws)):
-                    if ws[k] not in dj.free_symbols:
+                    if ws[k] not in free:
                         continue
-                    djk = sp.diff(dj, ws[k])
+                    djk = d.of(dj, ws[k])
                     if k == j and djk != 0:
                         curved.add(j)
+                    free_jk = djk.free_symbols
                     for m in range(k, len(ws)):
-                        if ws[m] in djk.free_symbols:
-                            d3 = _no_impulses(sp.diff(djk, ws[m]))
+                        if ws[m] in free_jk:
+                            d3 = d.of(djk, ws[m])
                             if d3 != 0:
                                 entries.append((i, j, k, m, d3))
         if not entries:

@@ -25,6 +25,7 @@ from collections.abc import Sequence
 import numpy as np
 import sympy as sp
 
+from hybridlab.reachability.derivatives import jacobian
 from hybridlab.reachability.rounding import PRODUCT_SLACK, TINY
 from hybridlab.reachability.sets import Zonotope
 from hybridlab.symbolic.functions import _no_impulses
@@ -56,7 +57,6 @@ class MeanValue:
 
     def __init__(self, exprs: Sequence[sp.Expr], zsyms: Sequence[sp.Symbol],
                  usyms: Sequence[sp.Symbol], second_order: bool = False) -> None:
-        from hybridlab.reachability.system import jacobian
         wsyms = tuple(zsyms) + tuple(usyms)
         self.size = len(exprs)
         self.nz = len(zsyms)

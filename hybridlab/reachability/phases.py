@@ -151,7 +151,7 @@ class Phases:
                 names.append(texts[-1])
         return ModeSystem(name=f"{m.name} [{', '.join(names)}]", flow=flow, zsyms=m.zsyms,
                           usyms=m.usyms, switches=m.switches, sigma_index=m.sigma_index,
-                          invariants=Rows(rows, m.zsyms, texts))
+                          invariants=Rows(rows, m.zsyms, texts), derivatives=m.derivatives)
 
     def straddled(self, mode: str, phase: Phase, P: Zonotope, step: float) -> str | None:
         """The first switching function (its text) that ``P`` is crossing and that is split
@@ -393,7 +393,8 @@ def _with_flow(m: ModeSystem, flow: tuple[sp.Expr, ...]) -> ModeSystem:
     if flow is m.flow:
         return m
     return ModeSystem(name=m.name, flow=flow, zsyms=m.zsyms, usyms=m.usyms,
-                      switches=m.switches, sigma_index=m.sigma_index, invariants=m.invariants)
+                      switches=m.switches, sigma_index=m.sigma_index, invariants=m.invariants,
+                      derivatives=m.derivatives)
 
 
 def with_phase(phase: Phase, text: str, side: float) -> Phase:

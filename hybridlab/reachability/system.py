@@ -23,7 +23,7 @@ model text is never evaluated.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
@@ -32,6 +32,7 @@ import sympy as sp
 from hybridlab.model.checks import TIME
 from hybridlab.model.expressions import as_expression
 from hybridlab.reachability.cubic import ThirdOrder
+from hybridlab.reachability.derivatives import Derivatives, jacobian
 from hybridlab.reachability.meanvalue import MeanValue
 from hybridlab.symbolic.compile import CompiledModel
 from hybridlab.symbolic.discontinuities import extract_switches
@@ -50,39 +51,6 @@ def _lambdify(exprs: Sequence[sp.Expr], args: Sequence[Sequence[sp.Symbol]]):
         return np.array(f(*values), dtype=float).reshape(len(exprs))
 
     return call
-
-
-def jacobian(exprs: Sequence[sp.Expr], syms: Sequence[sp.Symbol]) -> sp.Matrix:
-    """``d expr_i / d sym_j``, each sum differentiated term by term.
-
-    Only the terms that contain a symbol are differentiated by it, and a term
-    ``c * s`` gives ``c`` without a derivative. ``sympy.Matrix.jacobian`` differentiates
-    every sum as a whole by every symbol: 3.9 s for the 48-state building, where this
-    takes under a second; the entries are the same expressions.
-
-    Examples
-    --------
-    >>> x, y = sp.symbols("x y")
-    >>> jacobian([2 * x + 3 * y + 1, x * y], [x, y])
-    Matrix([
-    [2, 3],
-    [y, x]])
-    """
-    rows = []
-    for e in exprs:
-        terms = sp.Add.make_args(e)
-        term_syms = [t.free_symbols for t in terms]
-        row = []
-        for w in syms:
-            parts = []
-            for t, present in zip(terms, term_syms, strict=True):
-                if w not in present:
-                    continue
-                coef, rest = t.as_independent(w, as_Add=False)
-                parts.append(coef if rest == w else t.diff(w))
-            row.append(sp.Add(*parts))
-        rows.append(row)
-    return sp.Matrix(len(exprs), len(syms), [d for row in rows for d in row])
 
 
 def _constant_gradient(exprs: Sequence[sp.Expr], syms: Sequence[sp.Symbol]) -> np.ndarray | None:
@@ -256,6 +224,8 @@ class ModeSystem:
     #: index of each switch's sigma in ``u``
     sigma_index: tuple[int, ...]
     invariants: Rows
+    #: the derivatives taken so far, shared with the modes of the same system
+    derivatives: Derivatives = field(default_factory=Derivatives, repr=False)
 
     @cached_property
     def wsyms(self) -> tuple[sp.Symbol, ...]:
@@ -267,7 +237,7 @@ class ModeSystem:
 
     @cached_property
     def _jac(self) -> sp.Matrix:
-        return jacobian(self.flow, self.wsyms).applyfunc(_no_impulses)
+        return self.derivatives.jacobian(self.flow, self.wsyms)
 
     @cached_property
     def jacobian(self):
@@ -289,7 +259,7 @@ class ModeSystem:
                 for k in range(j, nw):  # symmetric in j and k: each pair differentiated once
                     if ws[k] in free:
                         entries[(i * nw + j) * nw + k] = entries[(i * nw + k) * nw + j] = \
-                            _no_impulses(sp.diff(e, ws[k]))
+                            self.derivatives.of(e, ws[k])
         if all(e == 0 for e in entries):
             return None
         return IntervalFunction(entries, ws)
@@ -298,7 +268,7 @@ class ModeSystem:
     def third(self) -> ThirdOrder | None:
         """The third derivatives of the flow, for the third-order remainder
         (:mod:`~hybridlab.reachability.cubic`); ``None`` when all are zero."""
-        return ThirdOrder.of(self.flow, self.wsyms)
+        return ThirdOrder.of(self._jac, self.wsyms, self.derivatives)
 
     @cached_property
     def affine(self) -> bool:
@@ -386,7 +356,7 @@ class ModeSystem:
         return ModeSystem(name=f"{self.name} sliding on {self.switches.texts[k]} = 0",
                           flow=slide, zsyms=self.zsyms, usyms=self.usyms,
                           switches=self.switches, sigma_index=self.sigma_index,
-                          invariants=self.invariants)
+                          invariants=self.invariants, derivatives=self.derivatives)
 
     def lie_exprs(self, rows: Rows) -> list[sp.Expr]:
         """The time derivatives of ``rows`` along this flow."""
@@ -496,6 +466,7 @@ def build_system(compiled: CompiledModel, values: np.ndarray,
     extra_reset = tuple(pmap[n] for n in uncertain) + ((TIME,) if timed else ())
 
     modes = {}
+    derivatives = Derivatives()  # the modes' rows repeat: each derivative taken once
     for name, m in sym.modes.items():
         smooth, switches = extract_switches(flows[name], prefix="_rsigma")
         usyms = usyms_in + tuple(s.symbol for s in switches)
@@ -504,6 +475,7 @@ def build_system(compiled: CompiledModel, values: np.ndarray,
             switches=Rows([s.expr for s in switches], zsyms, [s.text for s in switches]),
             sigma_index=tuple(range(len(usyms_in), len(usyms))),
             invariants=Rows(inv_exprs[name], zsyms, [r.text for r in m.invariants]),
+            derivatives=derivatives,
         )
     guards = {tr.index: Rows(guard_exprs[tr.index], zsyms, [r.text for r in tr.guard])
               for tr in sym.transitions}
