@@ -115,3 +115,34 @@ def test_a_set_of_many_generators_is_reduced_for_the_form_and_the_bound_still_ho
     monkeypatch.setattr(nonlinear, "FORM_ORDER", 10_000)  # every generator summed
     whole = remainder_bound(m, H, z_star, none, none, none)
     assert np.all(whole <= bound) and np.all(bound <= 1.05 * whole)
+
+
+def test_modes_sharing_rows_take_each_derivative_once_and_get_sympys_derivatives():
+    # two modes of one system: the same curved row (a pendulum's), different references;
+    # the second mode takes only the derivatives of the row it does not share, and each
+    # mode's Hessian and third derivatives are sympy's own, with the sign's impulses dropped
+    from hybridlab.reachability.derivatives import Derivatives
+
+    shared = Derivatives()
+    rows = [sp.sin(phi) * x**2 + sp.sign(x), -x + r]
+    a = ModeSystem("a", (rows[0], rows[1], 1 - r), Z, (), Rows([], Z), (), Rows([], Z),
+                   derivatives=shared)
+    b = ModeSystem("b", (rows[0], rows[1], 2 - r * x), Z, (), Rows([], Z), (), Rows([], Z),
+                   derivatives=shared)
+    assert a.hessian is not None and a.third is not None
+    after_a = len(shared)
+    assert b.hessian is not None and b.third is not None
+    alone = Derivatives()
+    assert ModeSystem("b", b.flow, Z, (), Rows([], Z), (), Rows([], Z),
+                      derivatives=alone).third is not None
+    assert 0 < len(shared) - after_a < len(alone)  # b's own row only
+    for mode in (a, b):
+        hess = [sp.diff(f, v, w).replace(sp.DiracDelta, lambda *_: 0)
+                for f in mode.flow for v in Z for w in Z]
+        assert [sp.simplify(h - e) for h, e in zip(hess, mode.hessian.exprs, strict=True)] \
+            == [0] * len(hess)
+        third = mode.third
+        for i, j, k, m, e in zip(third.rows, third.first, third.second, third.linear,
+                                 third.function.exprs, strict=True):
+            assert sp.simplify(sp.diff(mode.flow[i], Z[j], Z[k], Z[m])
+                               .replace(sp.DiracDelta, lambda *_: 0) - e) == 0
