@@ -242,6 +242,55 @@ def _crane(x_min: float, step: float = 0.01, t_end: float = 15.0):
     return Core(ha, _settings(step, t_end)).run([StateSet(init, mode)])
 
 
+_PLATOON_CONNECTED = [
+    [0, 1.0, 0, 0, 0, 0, 0, 0, 0],
+    [0, 0, -1.0, 0, 0, 0, 0, 0, 0],
+    [1.605, 4.868, -3.5754, -0.8198, 0.427, -0.045, -0.1942, 0.3626, -0.0946],
+    [0, 0, 0, 0, 1.0, 0, 0, 0, 0],
+    [0, 0, 1.0, 0, 0, -1.0, 0, 0, 0],
+    [0.8718, 3.814, -0.0754, 1.1936, 3.6258, -3.2396, -0.595, 0.1294, -0.0796],
+    [0, 0, 0, 0, 0, 0, 0, 1.0, 0],
+    [0, 0, 0, 0, 0, 1.0, 0, 0, -1.0],
+    [0.7132, 3.573, -0.0964, 0.8472, 3.2568, -0.0876, 1.2726, 3.072, -3.1356]]
+
+
+def _platoon(bound: float, step: float = 0.02, t_end: float = 20.0):
+    """platoon.xml: states x1..x9, t, one; u in [-9, 1] on x2; switching every 5 s."""
+    lputil, Core, HybridAutomaton, _, _, StateSet = _hylaa()
+    n, T, ONE = 11, 9, 10
+    disconnected = [list(row) for row in _PLATOON_CONNECTED]
+    disconnected[2][3:] = [0.0] * 6  # the first two controllers lose the states behind
+    disconnected[5][:3] = [0.0] * 3
+    disconnected[5][6:] = [0.0] * 3
+    ha = HybridAutomaton("platoon")
+    modes = []
+    for name, rows in (("connected", _PLATOON_CONNECTED), ("disconnected", disconnected)):
+        a = np.zeros((n, n))
+        a[:9, :9] = rows
+        a[T, ONE] = 1.0
+        mode = ha.new_mode(name)
+        mode.set_dynamics(a)
+        b = np.zeros((n, 1))
+        b[1, 0] = 1.0
+        mode.set_inputs(b, [[1.0], [-1.0]], [1.0, 9.0])  # u in [-9, 1]
+        clock = np.zeros((1, n))
+        clock[0, T] = 1.0
+        mode.set_invariant(clock, [5.0])
+        modes.append(mode)
+    reset = np.identity(n)
+    reset[T, T] = 0.0
+    for src, dst in ((0, 1), (1, 0)):
+        guard = np.zeros((1, n))
+        guard[0, T] = -1.0
+        tr = ha.new_transition(modes[src], modes[dst], f"switch{src}")
+        tr.set_guard(guard, [-5.0])  # t >= 5
+        tr.set_reset(reset)
+    for mode in modes:  # forbidden x1, x4 or x7 <= -bound
+        _error_transitions(ha, mode, n, [[({i: 1.0}, -bound)] for i in (0, 3, 6)])
+    init = lputil.from_box([(0.0, 0.0)] * 10 + [(1.0, 1.0)], modes[0])
+    return Core(ha, _settings(step, t_end)).run([StateSet(init, modes[0])])
+
+
 BENCHMARKS = {
     "crane": lambda: _crane(-1.8),
     "crane_unsafe": lambda: _crane(-1.5),
@@ -256,6 +305,8 @@ BENCHMARKS = {
     "building_bldf01": _building,
     "room_heating": _room_heating,
     "stiff2d": _stiff2d,
+    "platoon_plad01_bnd42": lambda: _platoon(42.0),
+    "platoon_plad01_bnd30": lambda: _platoon(30.0),
 }
 
 

@@ -101,6 +101,10 @@ BENCHMARKS = (
               "ARCH-COMP AFF SRA04 (abort at t = 240); CORA rendezvous_SRA04.m", True),
     Benchmark("building_bldf01", "building.xml", "building.cfg", "SAFE",
               "ARCH-COMP AFF BLDF01 / BDS01; ARCH-COMP17 SpaceEx BLDF01.xml", True),
+    Benchmark("platoon_plad01_bnd42", "platoon.xml", "platoon_plad01_bnd42.cfg", "SAFE",
+              "ARCH-COMP AFF PLAD01-BND42; CORA platoon_PLAD01_BND30.m", True),
+    Benchmark("platoon_plad01_bnd30", "platoon.xml", "platoon_plad01_bnd30.cfg", "SAFE",
+              "ARCH-COMP AFF PLAD01-BND30; CORA platoon_PLAD01_BND30.m", True),
     Benchmark("room_heating", "room_heating.xml", "room_heating.cfg", "SAFE",
               "defined here after Fehnker and Ivancic (HSCC 2004), CORA roomHeating.m; "
               "checked by simulation only", True),
