@@ -43,7 +43,7 @@ def test_platoon_runs_with_switching_inputs_lie_in_the_flowpipes_across_the_swit
         x, t = np.zeros(9), 0.0
         while t < 20.0 - 1e-12:
             k = int(t // 5.0 + 1e-9)
-            A = connected if k % 2 == 0 else disconnected
+            A, mode = (connected, "connected") if k % 2 == 0 else (disconnected, "disconnected")
             t1 = min(5.0 * (k + 1), t + float(rng.uniform(0.1, 2.0)))
             u = float(rng.choice([-9.0, 1.0])) if run % 2 else float(rng.uniform(-9.0, 1.0))
             aug = np.zeros((10, 10))  # (x, u): x' = A x + e_2 u, u' = 0
@@ -51,14 +51,11 @@ def test_platoon_runs_with_switching_inputs_lie_in_the_flowpipes_across_the_swit
             tau = np.linspace(0.0, t1 - t, 40)[1:-1]
             states = np.array([(expm(aug * s) @ np.r_[x, u])[:9] for s in tau])
             clock = (t + tau) - 5.0 * k
-            inside = result.covers(t + tau, np.column_stack([states, clock]),
-                                   "connected" if k % 2 == 0 else "disconnected", tol=1e-9)
+            inside = result.covers(t + tau, np.column_stack([states, clock]), mode, tol=1e-9)
             assert inside.all(), (run, (t + tau)[~inside][0])
             if run == 0:
                 shifted = np.column_stack([states + np.r_[-10.0, np.zeros(8)], clock])[::10]
-                outside += int((~result.covers((t + tau)[::10], shifted, "connected"
-                                               if k % 2 == 0 else "disconnected",
-                                               tol=1e-9)).sum())
+                outside += int((~result.covers((t + tau)[::10], shifted, mode, tol=1e-9)).sum())
             lowest = min(lowest, float(states[:, [0, 3, 6]].min()))
             x, t = (expm(aug * (t1 - t)) @ np.r_[x, u])[:9], t1
     assert lowest < -15.0  # the inputs really drove the spacing errors down

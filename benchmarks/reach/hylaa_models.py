@@ -143,28 +143,34 @@ def _spacecraft(t_lo: float, t_hi: float, step: float = 0.2, t_end: float = 300.
     return Core(ha, _settings(step, t_end)).run([StateSet(init, approach)])
 
 
-def _building_matrices():
-    """A (48x48) and B (48) from building.xml: flows are sums of coefficient*variable."""
-    root = ET.parse(SPACEEX / "building.xml").getroot()
-    n = 48
-    a, b = np.zeros((n, n)), np.zeros(n)
-    term = re.compile(r"([+-]?)\s*(?:([0-9.eE+-]+)\*)?(x\d+|u1)")
-    for flow in root.iter("{http://www-verimag.imag.fr/xml-namespaces/sspaceex}flow"):
-        for eq in flow.text.split("&"):
+def _affine_flows(xml: str, n: int, input_name: str) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """``{location: (A, b)}`` read off a SpaceEx file's flows ``xi' == sum coef*xj + coef*u``
+    over the states ``x1 .. xn`` and one input (flows of other variables, such as a clock,
+    are left out; a location split over parallel components is summed)."""
+    ns = "{http://www-verimag.imag.fr/xml-namespaces/sspaceex}"
+    root = ET.parse(SPACEEX / xml).getroot()
+    term = re.compile(rf"([+-]?)\s*(?:([0-9.eE+-]+)\*)?(x\d+|{input_name})\b")
+    flows: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    for location in root.iter(f"{ns}location"):
+        a, b = flows.setdefault(location.get("name"), (np.zeros((n, n)), np.zeros(n)))
+        for eq in location.find(f"{ns}flow").text.split("&"):
             lhs, rhs = eq.split("==")
-            i = int(lhs.strip().rstrip("'")[1:]) - 1
+            name = lhs.strip().rstrip("'")
+            if not re.fullmatch(r"x\d+", name):
+                continue
+            i = int(name[1:]) - 1
             for sign, coef, var in term.findall(rhs):
                 c = (float(coef) if coef else 1.0) * (-1.0 if sign == "-" else 1.0)
-                if var == "u1":
+                if var == input_name:
                     b[i] += c
                 else:
                     a[i, int(var[1:]) - 1] += c
-    return a, b
+    return flows
 
 
 def _building(step: float = 0.002, t_end: float = 20.0):
     lputil, Core, HybridAutomaton, _, _, StateSet = _hylaa()
-    a, b = _building_matrices()
+    a, b = _affine_flows("building.xml", 48, "u1")["model"]
     n = 48
     ha = HybridAutomaton("building")
     mode = ha.new_mode("model")
@@ -242,36 +248,20 @@ def _crane(x_min: float, step: float = 0.01, t_end: float = 15.0):
     return Core(ha, _settings(step, t_end)).run([StateSet(init, mode)])
 
 
-_PLATOON_CONNECTED = [
-    [0, 1.0, 0, 0, 0, 0, 0, 0, 0],
-    [0, 0, -1.0, 0, 0, 0, 0, 0, 0],
-    [1.605, 4.868, -3.5754, -0.8198, 0.427, -0.045, -0.1942, 0.3626, -0.0946],
-    [0, 0, 0, 0, 1.0, 0, 0, 0, 0],
-    [0, 0, 1.0, 0, 0, -1.0, 0, 0, 0],
-    [0.8718, 3.814, -0.0754, 1.1936, 3.6258, -3.2396, -0.595, 0.1294, -0.0796],
-    [0, 0, 0, 0, 0, 0, 0, 1.0, 0],
-    [0, 0, 0, 0, 0, 1.0, 0, 0, -1.0],
-    [0.7132, 3.573, -0.0964, 0.8472, 3.2568, -0.0876, 1.2726, 3.072, -3.1356]]
-
-
 def _platoon(bound: float, step: float = 0.02, t_end: float = 20.0):
     """platoon.xml: states x1..x9, t, one; u in [-9, 1] on x2; switching every 5 s."""
     lputil, Core, HybridAutomaton, _, _, StateSet = _hylaa()
     n, T, ONE = 11, 9, 10
-    disconnected = [list(row) for row in _PLATOON_CONNECTED]
-    disconnected[2][3:] = [0.0] * 6  # the first two controllers lose the states behind
-    disconnected[5][:3] = [0.0] * 3
-    disconnected[5][6:] = [0.0] * 3
     ha = HybridAutomaton("platoon")
     modes = []
-    for name, rows in (("connected", _PLATOON_CONNECTED), ("disconnected", disconnected)):
+    for name, (rows, coupling) in _affine_flows("platoon.xml", 9, "u").items():
         a = np.zeros((n, n))
         a[:9, :9] = rows
         a[T, ONE] = 1.0
         mode = ha.new_mode(name)
         mode.set_dynamics(a)
         b = np.zeros((n, 1))
-        b[1, 0] = 1.0
+        b[:9, 0] = coupling
         mode.set_inputs(b, [[1.0], [-1.0]], [1.0, 9.0])  # u in [-9, 1]
         clock = np.zeros((1, n))
         clock[0, T] = 1.0
