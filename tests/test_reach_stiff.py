@@ -17,7 +17,7 @@ from scipy.linalg import expm
 
 import hybridlab
 from hybridlab.reachability.balls import expm_enclosure
-from hybridlab.reachability.chain import AffineChain
+from hybridlab.reachability.chain import AffineChain, InputSum
 from hybridlab.reachability.linear import Coupling, Propagator, affine_step
 from hybridlab.reachability.modal import Basis, _chord_deviation, fast_block
 from hybridlab.reachability.sets import Zonotope
@@ -411,3 +411,59 @@ def test_the_one_step_input_set_keeps_its_first_order_term_as_generators():
         # the set: the generators' zonotope plus the box
         lifted = Zonotope(np.zeros(2), np.hstack([G, np.diag(box)]))
         assert lifted.contains_points(x[None, :], 1e-15)[0], (edges, signs)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 4), st.integers(1, 3), st.integers(0, 6), st.integers(0, 2**32 - 1))
+def test_the_input_sum_reduced_to_its_budget_holds_the_exact_sum(n, m, budget, seed):
+    """The sum of terms ``M_j V`` kept within a budget (boxing and merging) has, in every
+    direction, at least the exact sum's support ``sum_j |d M_j WG|_1 + |d M_j| w_box``."""
+    rng = np.random.default_rng(seed)
+    Phi = expm(rng.normal(size=(n, n)) * rng.uniform(0.001, 0.3))
+    WG = rng.normal(size=(n, m)) * rng.uniform(0.01, 1.0)
+    w_box = np.abs(rng.normal(size=n)) * rng.choice([0.0, 1e-3])
+    total = InputSum(n, budget)
+    M, terms = np.eye(n), []
+    for _ in range(int(rng.integers(1, 40))):
+        total.add(M, np.zeros((n, n)), WG, w_box)
+        terms.append(M.copy())
+        M = Phi @ M
+    D = rng.normal(size=(25, n))
+    exact = sum(np.abs(D @ Mj @ WG).sum(axis=1) + np.abs(D @ Mj) @ w_box for Mj in terms)
+    assert total.parts()[0].shape[1] <= max(budget, 0)
+    assert np.all(total.zonotope().supports(D) >= exact * (1 - 1e-12))
+
+
+class _BoxingOnly(InputSum):
+    """The input sum reduced by Girard's boxing alone (no merging), for comparison."""
+
+    def _reduce(self, excess: int) -> None:
+        abs_G = np.abs(self.G)
+        boxed = np.argsort(abs_G.sum(axis=0) - abs_G.max(axis=0))[:excess]
+        self.rho = self.rho + abs_G[:, boxed].sum(axis=1)
+        self.G = np.delete(self.G, boxed, axis=1)
+        self.column = np.delete(self.column, boxed)
+
+
+def test_merging_consecutive_terms_keeps_the_input_sum_tighter_than_boxing_them():
+    """A random stable 6-state mode, one input column, 250 steps of 0.02, the sum kept to
+    18 generators: over 200 random directions its support exceeds the exact one by less
+    than half as much, on average, as with the excess boxed along the axes (measured 57 %
+    against 184 %)."""
+    rng = np.random.default_rng(0)
+    n, r = 6, 0.02
+    A = rng.normal(size=(n, n))
+    A -= (np.max(np.linalg.eigvals(A).real) + 0.5) * np.eye(n)
+    Phi, g = expm(A * r), rng.normal(size=(n, 1)) * r
+    merged, boxed, M, terms = InputSum(n, 3 * n), _BoxingOnly(n, 3 * n), np.eye(n), []
+    for _ in range(250):
+        merged.add(M, np.zeros((n, n)), g, np.zeros(n))
+        boxed.add(M, np.zeros((n, n)), g, np.zeros(n))
+        terms.append(M @ g)
+        M = Phi @ M
+    D = np.random.default_rng(3).normal(size=(200, n))
+    exact = sum(np.abs(D @ t).sum(axis=1) for t in terms)
+    excess_merged = merged.zonotope().supports(D) / exact - 1
+    excess_boxed = boxed.zonotope().supports(D) / exact - 1
+    assert np.all(excess_merged > -1e-12)
+    assert excess_merged.mean() < 0.5 * excess_boxed.mean()

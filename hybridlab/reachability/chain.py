@@ -11,12 +11,19 @@ relative time 0 and the set ``H_0`` over ``[0, r]`` (both from
 
 where ``X_k`` holds the states at relative time ``k r`` and ``H_k`` those over
 ``[k r, (k + 1) r]``. ``Phi^k X_0`` and ``Phi^k H_0`` keep the generators of
-``X_0`` and ``H_0``: they are never reduced, so the flowpipe does not wrap, and a
-step costs a few small matrix products. Only the input sum ``S_k`` is reduced
-(none for a mode without inputs), and only its generators beyond a budget: they are
-boxed along the state axes, where the interval hull of a sum is the sum of the
-interval hulls, so the bounds of ``S_k`` on every state stay exact
-(:class:`InputSum`).
+``X_0`` and ``H_0``: they are never reduced again, so the flowpipe does not wrap, and
+a step costs a few small matrix products. ``H_0`` is reduced once, and the input sum
+``S_k`` (none for a mode without inputs) only in its generators beyond a budget; both
+are boxed along the state axes, where the interval hull of a sum is the sum of the
+interval hulls, so their bounds on every state stay exact (:class:`InputSum`). A box in
+the mode's eigenvector coordinates would widen those bounds by the basis's conditioning,
+and neither set is boxed again, which is what such a basis guards against. The order's
+generators are shared: with inputs, ``H_0`` keeps at most half of them and the sum the
+rest, so that neither starves the other. A set that entered the mode after a jump fills
+the order on its own; given all of it, ``H_0`` would leave the sum of the mode's inputs a
+box, which the next mode maps. On the vehicle platoon (``models/spaceex/platoon.xml``,
+three switches in 20 s) that made the spacing bounds after the first switch up to 1.9
+times the exact ones; shared, and with :class:`InputSum`'s merging, they are within 23 %.
 
 ``Phi^k`` is carried as an interval matrix (midpoint and entrywise radius) that
 starts from the ball enclosure of ``Phi`` and bounds every product's rounding, so
@@ -62,9 +69,8 @@ class AffineChain:
     W : Zonotope, optional
         Zero-centred set of the time-varying input.
     order : float
-        Zonotope order of the input sum ``S_k`` (the only set reduced).
-    basis : tuple, optional
-        Reduction basis ``(S, inv_mid, inv_rad)`` (see ``Zonotope.reduce``).
+        Zonotope order of the flowpipe sets ``H_k`` (``H_0`` and the input sum
+        ``S_k`` share it; ``X_0`` is kept whole).
 
     Attributes
     ----------
@@ -86,17 +92,18 @@ class AffineChain:
     and boxing at every step, it would grow at every step).
     """
 
-    def __init__(self, prop: Propagator, P: Zonotope, W: Zonotope | None, order: float,
-                 basis: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> None:
+    def __init__(self, prop: Propagator, P: Zonotope, W: Zonotope | None,
+                 order: float) -> None:
         n = P.dim
         self.prop, self.n = prop, n
         self.first = affine_step(P, prop, W)
         self.X0 = P
-        self.H0 = self.first[1].reduce(order, basis)
-        # the two sets every step maps, in homogeneous coordinates (formed once)
-        self._X0h, self._H0h = homogeneous(self.X0), homogeneous(self.H0)
         WG, w_box = prop.input_set(W, n)
         self.V = (WG, w_box) if WG.size or np.any(w_box > 0) else None
+        # with inputs, H_0 takes at most half the order, so the sum keeps generators too
+        self.H0 = self.first[1].reduce(order if self.V is None else order / 2)
+        # the two sets every step maps, in homogeneous coordinates (formed once)
+        self._X0h, self._H0h = homogeneous(self.X0), homogeneous(self.H0)
         # the sum keeps generators while H_k stays within the order
         budget = int(order * n) - self.H0.generators.shape[1] - 2 * n
         self.S = InputSum(n, max(budget, n))
@@ -204,11 +211,25 @@ class InputSum:
     The box is along the state axes. The interval hull of a Minkowski sum is the sum
     of the interval hulls, so boxing a term loses nothing in the bounds of any state:
     only directions across the axes (and the set mapped further, which the chain
-    never does with ``S_k``) feel it. Boxing in the mode's eigenvector coordinates
-    instead made the building benchmark's bound on ``x25`` two to six times
-    looser. Each term's own box (the input tail and the products' rounding) goes
-    there at once, and generators beyond the budget are moved there, smallest first
-    (Girard's criterion).
+    never does with ``S_k``, but the next mode does after a jump) feel it. Boxing in the
+    mode's eigenvector coordinates instead made the building benchmark's bound on
+    ``x25`` two to six times looser. Each term's own box (the input tail and the
+    products' rounding) goes there at once. Beyond the budget, the cheaper of two
+    reductions is taken, one generator at a time, the cost being what it adds to the
+    box's radii, summed:
+
+    * box a generator ``g`` (Girard's criterion: the smallest ``|g|_1 - |g|_inf``);
+    * merge the generators ``g, h`` of one input column in two consecutive terms into
+      ``g + h``, boxing ``|g - h|``: ``g a + h b = (g + h) (a + b) / 2 + (g - h) (a - b)
+      / 2``, and both halves stay in ``[-1, 1]``. Two fresh consecutive terms differ by
+      ``Phi - I``, so merging them costs ``O(r^2)`` where boxing one costs ``O(r)``.
+
+    Merging keeps directions that boxing loses. In random stable 6-state modes over 250
+    steps, with 18 generators kept, the sum's support over random directions exceeded the
+    exact one by 45 to 82 % on average, against 103 to 184 % with boxing alone. On the
+    vehicle platoon (where the sum crosses three switches) the spacing bound no longer
+    widens as the step is halved: -28.80, -28.64 and -28.57 at steps 0.05, 0.025 and
+    0.0125, against -29.67, -32.10 and -33.30 with boxing alone.
 
     Parameters
     ----------
@@ -223,11 +244,25 @@ class InputSum:
     ...     total.add(np.eye(1), np.zeros((1, 1)), np.array([[1.0]]), np.array([0.5]))
     >>> total.zonotope().radius().round(9).tolist()     # three times 1 + 0.5
     [4.5]
+
+    Nearly parallel terms are merged rather than boxed: a rotation by 0.01 rad per term
+    keeps one generator of length close to 2 after two terms, and a small box (boxing
+    either term would add a box of radius 0.6 and 0.8):
+
+    >>> c, s = np.cos(0.01), np.sin(0.01)
+    >>> turning = InputSum(2, budget=1)
+    >>> g = np.array([[0.6], [0.8]])
+    >>> turning.add(np.eye(2), np.zeros((2, 2)), g, np.zeros(2))
+    >>> turning.add(np.array([[c, -s], [s, c]]), np.zeros((2, 2)), g, np.zeros(2))
+    >>> gens, box = turning.parts()
+    >>> gens.shape, bool(np.linalg.norm(gens) > 1.99), bool(box.max() < 0.011)
+    ((2, 1), True, True)
     """
 
     def __init__(self, n: int, budget: int) -> None:
         self.budget = budget
         self.G = np.zeros((n, 0))
+        self.column = np.zeros(0, dtype=int)  # the input column each generator comes from
         self.rho = np.zeros(n)  # radius of the box
 
     def add(self, M: np.ndarray, M_rad: np.ndarray, WG: np.ndarray, w_box: np.ndarray) -> None:
@@ -236,14 +271,51 @@ class InputSum:
         abs_M = np.abs(M)
         x_box = up(abs_M @ w_box + M_rad @ size + product_error(abs_M, size))
         self.G = np.hstack([self.G, M @ WG])
+        self.column = np.r_[self.column, np.arange(WG.shape[1])]
         self.rho = up(self.rho + x_box)
         excess = self.G.shape[1] - self.budget
         if excess > 0:
-            score = np.sum(np.abs(self.G), axis=0) - np.max(np.abs(self.G), axis=0)
-            ranked = np.argsort(score)
-            dropped = up(np.sum(np.abs(self.G[:, ranked[:excess]]), axis=1), excess)
-            self.rho = up(self.rho + dropped)
-            self.G = self.G[:, ranked[excess:]]
+            self._reduce(excess)
+
+    def _reduce(self, excess: int) -> None:
+        """``excess`` generators fewer, each by the cheaper of boxing one and merging two,
+        chosen together from the costs before any of them (no generator takes part in two)."""
+        abs_G = np.abs(self.G)
+        size = abs_G.shape[1]
+        score = np.sum(abs_G, axis=0) - np.max(abs_G, axis=0)
+        # consecutive generators of one input column, in the order added (merges keep it)
+        order = np.argsort(self.column, kind="stable")
+        same = self.column[order[1:]] == self.column[order[:-1]]
+        first, second = order[:-1][same], order[1:][same]
+        merge_cost = np.sum(np.abs(self.G[:, second] - self.G[:, first]), axis=0)
+        used = np.zeros(size, dtype=bool)
+        boxed: list[int] = []
+        kept: list[int] = []
+        gone: list[int] = []
+        for action in np.argsort(np.r_[score, merge_cost], kind="stable"):
+            if len(boxed) + len(gone) == excess:
+                break
+            if action < size:
+                if not used[action]:
+                    used[action] = True
+                    boxed.append(int(action))
+                continue
+            a, b = first[action - size], second[action - size]
+            if not (used[a] or used[b]):
+                used[a] = used[b] = True
+                kept.append(int(a))
+                gone.append(int(b))
+        added = np.sum(abs_G[:, boxed], axis=1)
+        if kept:
+            g, h = self.G[:, kept], self.G[:, gone]
+            # the sums' rounding and the differences', each within U (|g| + |h|)
+            added = added + np.sum(np.abs(g - h) + 2 * U * (abs_G[:, kept] + abs_G[:, gone]),
+                                   axis=1)
+            self.G[:, kept] = g + h
+        self.rho = up(self.rho + up(added, len(boxed) + len(kept)))
+        keep = np.ones(size, dtype=bool)
+        keep[boxed + gone] = False
+        self.G, self.column = self.G[:, keep], self.column[keep]
 
     def parts(self) -> tuple[np.ndarray, np.ndarray]:
         """``(generators, box)``: the kept generators and the box's radius."""

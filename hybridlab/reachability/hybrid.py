@@ -158,6 +158,14 @@ def _within(Z: Zonotope | None, rows: Rows) -> Zonotope | None:
     return Z
 
 
+def _no_wider(Z: Zonotope, box: np.ndarray) -> bool:
+    """Whether ``Z``'s interval hull lies within ``box`` (up to the rounding of its bounds)."""
+    bounds = Z.bounds()
+    scale = 1e-12 * (1.0 + np.abs(box).max(axis=1))
+    return bool(np.all(bounds[:, 0] >= box[:, 0] - scale)
+                and np.all(bounds[:, 1] <= box[:, 1] + scale))
+
+
 def _frames_alike(swept: Zonotope, box: np.ndarray) -> bool:
     """Whether a sweep hull's interval hull stays within :data:`GROUP_GROWTH` times the run's
     box (each coordinate's width): when the run's sets do not share their generators'
@@ -902,6 +910,13 @@ class _Analysis:
                 if joined is not None and not _frames_alike(joined, hull([raw[k].bounds()
                                                                          for k in group])):
                     joined = None  # the sets' generators do not correspond
+            if joined is None and len(group) == 1:
+                # one hit (a guard crossed within one step, such as a clock's instant landed
+                # on): its own set, cut, where that is no wider than the box on any state,
+                # keeps the correlations any box loses
+                own = _within(_within(sets[group[0]], guard), invariant)
+                if own is not None and _no_wider(own, box):
+                    joined = sets[group[0]]
             if joined is not None:
                 pre = _within(_within(joined, guard), invariant)
                 row = rows[group[0]]

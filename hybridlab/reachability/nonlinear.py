@@ -134,9 +134,15 @@ class FlowStepper(SurfaceSteps):
 
     def reduce(self, Z: Zonotope, order: float) -> Zonotope:
         """``Z`` reduced to ``order``; for an affine mode, boxed in its eigenvector basis
-        (where the flow contracts, so a box mapped and boxed again does not grow)."""
-        if self._chain is not None and (Z is self._chain_end or Z is self._chain_set):
+        (where the flow contracts, so a box mapped and boxed again does not grow), except
+        a chain's own sets (see :mod:`.chain`)."""
+        chain = self._chain
+        if chain is not None and (Z is self._chain_end or Z is self._chain_set):
             return Z  # a chain's set: its size is bounded, and reducing it would wrap
+        if chain is not None and Z is chain.first[1]:
+            # the chain's first flowpipe set: the chain maps its own reduction, never this
+            # one, so it is boxed along the axes, where its bounds stay exact
+            return Z.reduce(order)
         if self._taylor_end is not None and Z is self._taylor_end:
             return Z  # a Taylor model's end set: few generators, and the model goes on
         return Z.reduce(order, self._basis())
@@ -402,8 +408,7 @@ class FlowStepper(SurfaceSteps):
             if not whole or self.options.bloat or not own:
                 P_next, H = affine_step(P, prop, W, self.options.bloat)
                 return (P_next, H) if project is None else (project(P_next), project(H))
-            basis = self._basis() if project is None else None
-            self._chain = AffineChain(prop, P, W, self.options.order, basis)
+            self._chain = AffineChain(prop, P, W, self.options.order)
             self._chain_project = project
             P_next, H = self._chain.first
             if project is not None:

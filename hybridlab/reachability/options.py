@@ -48,7 +48,8 @@ class ReachOptions:
         hits form one group while the group's interval hull stays within twice its
         widest piece in every coordinate, so a short, compact run is one post-jump
         set and a long sweep across the guard becomes several tight ones.
-        ``"box"``: the whole run in one box (fewest branches, loosest).
+        ``"box"``: the whole run in one box (fewest branches, loosest); a run of
+        one hit keeps its own set, cut, where that is no wider on any state.
         ``"none"``: one post-jump set per step (tightest, most branches).
         ``"sweep"``: the whole run as a zonotope that keeps the flowpipe's
         generators plus one along the sweep of its centres, so the correlations
