@@ -30,6 +30,25 @@ def ball() -> hybridlab.Model:
     return hybridlab.load_model(MODELS / "bouncing_ball.toml")
 
 
+@pytest.fixture(scope="session")
+def spaceex_proof():
+    """``prove(xml, cfg)``: the verdict on a bundled SpaceEx benchmark with its ``.cfg``'s
+    specs, initial set and horizon and otherwise default options (the step is hybridlab's own,
+    as in ``benchmarks/reach/run.py``), asserted SAFE."""
+    from hybridlab.io import load_spaceex
+    from hybridlab.verify import check_safety
+
+    def prove(xml: str, cfg: str):
+        problem = load_spaceex(MODELS / "spaceex" / xml, MODELS / "spaceex" / cfg)
+        kwargs = problem.reach_kwargs()
+        kwargs.pop("step", None)
+        verdict = check_safety(problem.model, safe=problem.safe_specs(), **kwargs)
+        assert verdict.status.name == "SAFE", verdict.reason
+        return verdict
+
+    return prove
+
+
 @pytest.fixture(params=["compiled", "reference"])
 def each_engine(request, monkeypatch) -> str:
     """Run the requesting test on both engines (compiled only when numba is installed).

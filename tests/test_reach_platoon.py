@@ -4,13 +4,8 @@ runs."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 from scipy.linalg import expm
-
-from hybridlab.io import load_spaceex
-from hybridlab.verify import check_safety
 
 _CONNECTED = np.array([
     [0, 1, 0, 0, 0, 0, 0, 0, 0], [0, 0, -1, 0, 0, 0, 0, 0, 0],
@@ -29,24 +24,14 @@ def _disconnected() -> np.ndarray:
     return A
 
 
-def _proved(cfg: str):
-    """The verdict of the platoon with the ``.cfg``'s specs and default options, SAFE."""
-    spaceex = Path(__file__).resolve().parents[1] / "models" / "spaceex"
-    problem = load_spaceex(spaceex / "platoon.xml", spaceex / cfg)
-    kwargs = problem.reach_kwargs()
-    kwargs.pop("step", None)
-    verdict = check_safety(problem.model, safe=problem.safe_specs(), **kwargs)
-    assert verdict.status.name == "SAFE", verdict.reason
-    return verdict
-
-
-def test_platoon_runs_with_switching_inputs_lie_in_the_flowpipes_across_the_switches():
+def test_platoon_runs_with_switching_inputs_lie_in_the_flowpipes_across_the_switches(
+        spaceex_proof):
     """The ARCH-COMP platoon (PLAD01): the leader's acceleration switching between random
     values of [-9, 1] at random instants, through the clock-guarded switches at 5, 10 and
     15 s; every sample of every run (exact per constant piece, by the matrix exponential of
     the augmented system) lies in the flowpipe of its mode, and the flowpipes prove the
     spacing errors >= -42 (BND42) as the published verdict says."""
-    verdict = _proved("platoon_plad01_bnd42.cfg")
+    verdict = spaceex_proof("platoon.xml", "platoon_plad01_bnd42.cfg")
     result = verdict.reach
     assert result.complete and result.state_names[-1].startswith("t")
     connected, disconnected = _CONNECTED, _disconnected()
@@ -75,13 +60,14 @@ def test_platoon_runs_with_switching_inputs_lie_in_the_flowpipes_across_the_swit
     assert outside > 0
 
 
-def test_the_tighter_platoon_bound_is_proved_and_no_tighter_than_the_exact_one():
+def test_the_tighter_platoon_bound_is_proved_and_no_tighter_than_the_exact_one(
+        spaceex_proof):
     """PLAD01-BND30 (spacing errors >= -30) is proved with default options, and the
     flowpipe's lower bound of x1 over the sets around t = 13.77 s is at or below the exact
     one there: the support function of the switched system's input integral, by the
     adjoint ``lambda(s) = Phi(t, s)^T e_1`` at steps of 1 ms (a Riemann sum whose error,
     about 1e-3, is far inside the flowpipe's distance of about 2 from the exact bound)."""
-    verdict = _proved("platoon_plad01_bnd30.cfg")
+    verdict = spaceex_proof("platoon.xml", "platoon_plad01_bnd30.cfg")
     t, h = 13.77, 1e-3
     steps = {0: expm(_CONNECTED * h), 1: expm(_disconnected() * h)}
     lam, exact = np.eye(9)[0], 0.0

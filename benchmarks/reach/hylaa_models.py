@@ -281,6 +281,61 @@ def _platoon(bound: float, step: float = 0.02, t_end: float = 20.0):
     return Core(ha, _settings(step, t_end)).run([StateSet(init, modes[0])])
 
 
+def _gearbox(px: tuple[float, float], py: tuple[float, float], step: float = 0.2 / 182,
+             t_end: float = 0.21):
+    """gearbox.xml from its physical parameters: states vx, vy, px, py, I, t, one; modes free
+    and meshed; Hylaa's own gearbox example's deaggregation on."""
+    lputil, Core, HybridAutomaton, _, _, StateSet = _hylaa()
+    n = 7
+    VX, VY, PX, PY, IMP, T, ONE = range(n)
+    ms, mg2, zeta, theta = 3.2, 18.1, 0.9, 0.628318530717959
+    sin, cos, tan = math.sin(theta), math.cos(theta), math.tan(theta)
+    ha = HybridAutomaton("gearbox")
+    free = ha.new_mode("free")
+    a = np.zeros((n, n))
+    a[VX, ONE], a[VY, ONE] = 70.0 / ms, -0.08 * 1.0 / 0.7  # Fs / ms, -Rs Tf / Jg2
+    a[PX, VX] = a[PY, VY] = a[T, ONE] = 1.0
+    free.set_dynamics(a)
+    inv = np.zeros((3, n))
+    inv[0, PX] = 1.0  # px <= -0.003
+    inv[1, PY], inv[1, PX] = 1.0, tan  # py <= -tan px
+    inv[2, PY], inv[2, PX] = -1.0, tan  # py >= tan px
+    free.set_invariant(inv, [-0.003, 0.0, 0.0])
+    meshed = ha.new_mode("meshed")
+    still = np.zeros((n, n))
+    still[T, ONE] = 1.0
+    meshed.set_dynamics(still)
+    den = ms * cos**2 + mg2 * sin**2
+    for name, sign in (("upper_flank", 1.0), ("lower_flank", -1.0)):
+        guard = np.zeros((2, n))
+        guard[0, PY], guard[0, PX] = -sign, -tan  # upper: py >= -tan px; lower: py <= tan px
+        guard[1, VX], guard[1, VY] = -sin, -sign * cos  # moving into the flank
+        reset = np.identity(n)
+        reset[VX, VX] = (ms * cos**2 - mg2 * zeta * sin**2) / den
+        reset[VX, VY] = -sign * (zeta + 1) * mg2 * sin * cos / den
+        reset[VY, VX] = -sign * (zeta + 1) * ms * sin * cos / den
+        reset[VY, VY] = (mg2 * sin**2 - ms * zeta * cos**2) / den
+        reset[IMP, VX] = (zeta + 1) * ms * mg2 * sin / den
+        reset[IMP, VY] = sign * (zeta + 1) * ms * mg2 * cos / den
+        tr = ha.new_transition(free, free, name)
+        tr.set_guard(guard, [0.0, 0.0])
+        tr.set_reset(reset)
+    mesh = np.identity(n)
+    mesh[VX, VX] = mesh[VY, VY] = 0.0
+    mesh[IMP, VX] = mesh[IMP, VY] = ms
+    tr = ha.new_transition(free, meshed, "mesh")
+    tr.set_guard([[0, 0, -1.0, 0, 0, 0, 0]], [0.003])  # px >= -0.003
+    tr.set_reset(mesh)
+    # forbidden: free at t >= 0.2, or I >= 20
+    _error_transitions(ha, free, n, [[({T: -1.0}, -0.2)], [({IMP: -1.0}, -20.0)]])
+    _error_transitions(ha, meshed, n, [[({IMP: -1.0}, -20.0)]])
+    init = lputil.from_box([(0.0, 0.0), (0.0, 0.0), px, py, (0.0, 0.0), (0.0, 0.0),
+                            (1.0, 1.0)], free)
+    settings = _settings(step, t_end)
+    settings.aggstrat.deaggregate = True
+    return Core(ha, settings).run([StateSet(init, free)])
+
+
 BENCHMARKS = {
     "crane": lambda: _crane(-1.8),
     "crane_unsafe": lambda: _crane(-1.5),
@@ -297,6 +352,8 @@ BENCHMARKS = {
     "stiff2d": _stiff2d,
     "platoon_plad01_bnd42": lambda: _platoon(42.0),
     "platoon_plad01_bnd30": lambda: _platoon(30.0),
+    "gearbox_grbx01": lambda: _gearbox((-0.0168, -0.0166), (0.0029, 0.0031)),
+    "gearbox_grbx02": lambda: _gearbox((-0.01675, -0.01665), (0.00285, 0.00315)),
 }
 
 

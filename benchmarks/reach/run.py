@@ -105,6 +105,10 @@ BENCHMARKS = (
               "ARCH-COMP AFF PLAD01-BND42; CORA platoon_PLAD01_BND30.m", True),
     Benchmark("platoon_plad01_bnd30", "platoon.xml", "platoon_plad01_bnd30.cfg", "SAFE",
               "ARCH-COMP AFF PLAD01-BND30; CORA platoon_PLAD01_BND30.m", True),
+    Benchmark("gearbox_grbx01", "gearbox.xml", "gearbox_grbx01.cfg", "SAFE",
+              "ARCH-COMP AFF GRBX01-MES01; CORA gearbox.m, JuliaReach Gearbox", True),
+    Benchmark("gearbox_grbx02", "gearbox.xml", "gearbox_grbx02.cfg", "SAFE",
+              "ARCH-COMP AFF GRBX02-MES01; JuliaReach Gearbox", True),
     Benchmark("room_heating", "room_heating.xml", "room_heating.cfg", "SAFE",
               "defined here after Fehnker and Ivancic (HSCC 2004), CORA roomHeating.m; "
               "checked by simulation only", True),
