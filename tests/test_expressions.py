@@ -425,3 +425,13 @@ def test_integer_power_tower_is_refused_quickly() -> None:
     except subprocess.TimeoutExpired:
         pytest.fail("loading a model with the flow '9**9**9' did not finish within 8 s")
     assert done.stdout == "ModelError\n"
+
+
+def test_a_stray_backslash_is_a_one_line_error_and_no_python_warning(recwarn):
+    """A backslash other than a line continuation is refused before Python parses the text,
+    which would otherwise print a warning about its escape sequences to standard error."""
+    for text in ['x + "\\#"', "x \\ 2"]:
+        with pytest.raises(ExpressionError, match="unexpected character"):
+            parse_expression(text, SYMBOLS)
+    assert not [w for w in recwarn if issubclass(w.category, (SyntaxWarning, DeprecationWarning))]
+    assert parse_expression("x + \\\n 1", SYMBOLS) == x + 1

@@ -200,14 +200,17 @@ def _submit(executor: Any, chunks: Sequence[Chunk], collect: Any,
 
     Ctrl-C reaches this thread only. With ``in_process`` (threads of this process) it
     sets a stop event, so that the chunks running in the other threads start no further
-    run; worker processes get Ctrl-C themselves.
+    run, and every chunk that started is collected with the runs it finished, wherever the
+    interrupt came (even between a submission and its bookkeeping); worker processes get
+    Ctrl-C themselves.
     """
     stop = threading.Event()
     lost: list[Chunk] = []
     pending: dict[cf.Future, Chunk] = {}  # submitted, not collected yet
+    threads = _ThreadedChunks(stop) if in_process else None
     try:
         for chunk in chunks:  # in the try: Ctrl-C may come while the first chunks run
-            pending[executor.submit(run_chunk, chunk, stop) if in_process
+            pending[executor.submit(threads.run, chunk) if threads is not None
                     else executor.submit(run_chunk, chunk)] = chunk
         for future in cf.as_completed(list(pending)):
             chunk = pending.pop(future)
@@ -220,22 +223,64 @@ def _submit(executor: Any, chunks: Sequence[Chunk], collect: Any,
                 collect(chunk, None, f"{type(exc).__name__}: {text}")
             else:
                 collect(chunk, outcome)
+                if threads is not None:  # interrupted before this, it is collected again:
+                    threads.collected(chunk)  # its rows are set, not added, so no run is lost
     except KeyboardInterrupt:
-        if in_process:  # the running chunks start no further run; keep what they finished
-            stop.set()
-            for future, chunk in pending.items():
-                if not future.cancel() and (outcome := _finished(future)) is not None:
-                    collect(chunk, outcome)
+        if threads is not None:  # the running chunks start no further run; keep what they did
+            for future in pending:
+                future.cancel()  # a chunk not started stays so
+            for chunk, outcome in threads.finish():
+                collect(chunk, outcome)
         raise
     return lost
 
 
-def _finished(future: cf.Future) -> Any:
-    """The outcome of a chunk that was running when the sweep was interrupted, or ``None``."""
-    try:
-        return future.result()
-    except Exception:
-        return None
+class _ThreadedChunks:
+    """The chunks of one sweep run in threads: each started chunk's outcome is kept here by
+    its own thread, so an interrupted sweep can collect every chunk that started, including
+    one whose future the interrupted thread never recorded."""
+
+    def __init__(self, stop: threading.Event) -> None:
+        self.stop = stop
+        self._lock = threading.Lock()
+        self._started: dict[int, tuple[Chunk, threading.Event]] = {}
+        self._outcomes: dict[int, list[tuple[int, tuple[Any, ...], Any]]] = {}
+        self._collected: set[int] = set()
+
+    def run(self, chunk: Chunk) -> list[tuple[int, tuple[Any, ...], Any]]:
+        """:func:`run_chunk` with the sweep's stop event; its outcome is kept."""
+        done = threading.Event()
+        with self._lock:
+            self._started[id(chunk)] = (chunk, done)
+        try:
+            outcome = run_chunk(chunk, self.stop)
+            with self._lock:
+                self._outcomes[id(chunk)] = outcome
+            return outcome
+        finally:
+            done.set()
+
+    def collected(self, chunk: Chunk) -> None:
+        """Note that ``chunk``'s outcome was collected the usual way."""
+        with self._lock:
+            self._collected.add(id(chunk))
+
+    def finish(self) -> list[tuple[Chunk, list[tuple[int, tuple[Any, ...], Any]]]]:
+        """Stop the chunks, wait for those that started and return each outcome not
+        collected yet (a chunk whose thread failed has none)."""
+        self.stop.set()
+        with self._lock:
+            started = list(self._started.items())
+        out = []
+        for key, (chunk, done) in started:
+            done.wait()
+            with self._lock:
+                outcome = self._outcomes.get(key)
+                fresh = key not in self._collected
+                self._collected.add(key)
+            if outcome is not None and fresh:
+                out.append((chunk, outcome))
+        return out
 
 
 def _shutdown(placement: Any) -> None:

@@ -13,6 +13,7 @@ import ast
 import keyword
 import math
 import numbers
+import re
 import sys
 import unicodedata
 from collections.abc import Callable, Mapping
@@ -259,6 +260,9 @@ def names_in(text: str) -> set[str]:
             and node.id not in CONSTANTS}
 
 
+_STRAY_BACKSLASH = re.compile(r"\\(?!\r?\n)")
+
+
 def _parse_tree(text: str) -> ast.expr:
     if not isinstance(text, str):
         raise ExpressionError("expression must be a string", repr(text)[:40])
@@ -267,6 +271,9 @@ def _parse_tree(text: str) -> ast.expr:
                               text[:20] + "...")
     if not text.strip():
         raise ExpressionError("empty expression", text)
+    stray = _STRAY_BACKSLASH.search(text)
+    if stray:  # only a line continuation has a use; Python would warn about an escape
+        raise ExpressionError("unexpected character '\\'", text[stray.start():][:20])
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as exc:

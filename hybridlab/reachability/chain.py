@@ -228,7 +228,7 @@ class InputSum:
     steps, with 18 generators kept, the sum's support over random directions exceeded the
     exact one by 45 to 82 % on average, against 103 to 184 % with boxing alone. On the
     vehicle platoon (where the sum crosses three switches) the spacing bound no longer
-    widens as the step is halved: -28.80, -28.64 and -28.57 at steps 0.05, 0.025 and
+    widens as the step is halved: -28.79, -28.64 and -28.57 at steps 0.05, 0.025 and
     0.0125, against -29.67, -32.10 and -33.30 with boxing alone.
 
     Parameters
