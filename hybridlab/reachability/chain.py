@@ -214,14 +214,15 @@ class InputSum:
     never does with ``S_k``, but the next mode does after a jump) feel it. Boxing in the
     mode's eigenvector coordinates instead made the building benchmark's bound on
     ``x25`` two to six times looser. Each term's own box (the input tail and the
-    products' rounding) goes there at once. Beyond the budget, the cheaper of two
-    reductions is taken, one generator at a time, the cost being what it adds to the
-    box's radii, summed:
+    products' rounding) goes there at once. Beyond the budget, each generator too many
+    is removed by the cheapest of these actions, all chosen from the costs before any is
+    taken, no generator in two of them:
 
-    * box a generator ``g`` (Girard's criterion: the smallest ``|g|_1 - |g|_inf``);
+    * box a generator ``g``, at Girard's cost ``|g|_1 - |g|_inf``;
     * merge the generators ``g, h`` of one input column in two consecutive terms into
-      ``g + h``, boxing ``|g - h|``: ``g a + h b = (g + h) (a + b) / 2 + (g - h) (a - b)
-      / 2``, and both halves stay in ``[-1, 1]``. Two fresh consecutive terms differ by
+      ``g + h``, boxing ``|g - h|``, at the cost ``|g - h|_1``:
+      ``g a + h b = (g + h) (a + b) / 2 + (g - h) (a - b) / 2``, and both halves stay in
+      ``[-1, 1]``. Two fresh consecutive terms differ by
       ``Phi - I``, so merging them costs ``O(r^2)`` where boxing one costs ``O(r)``.
 
     Merging keeps directions that boxing loses. In random stable 6-state modes over 250
