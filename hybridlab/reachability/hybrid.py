@@ -910,15 +910,16 @@ class _Analysis:
                 if joined is not None and not _frames_alike(joined, hull([raw[k].bounds()
                                                                          for k in group])):
                     joined = None  # the sets' generators do not correspond
+            cut = None if joined is None else _within(_within(joined, guard), invariant)
             if joined is None and len(group) == 1:
                 # one hit (a guard crossed within one step, such as a clock's instant landed
                 # on): its own set, cut, where that is no wider than the box on any state,
                 # keeps the correlations any box loses
                 own = _within(_within(sets[group[0]], guard), invariant)
                 if own is not None and _no_wider(own, box):
-                    joined = sets[group[0]]
+                    joined, cut = sets[group[0]], own
             if joined is not None:
-                pre = _within(_within(joined, guard), invariant)
+                pre = cut
                 row = rows[group[0]]
                 if pre is not None and row >= 0 and all(rows[k] == row for k in group):
                     pre = _firing_surface(pre, guard, row)
