@@ -317,3 +317,18 @@ def test_the_kept_sets_memory_is_a_budget():
     assert any("max_memory" in reason for reason in cut.incomplete_reasons)
     with pytest.raises(ValueError, match="max_memory"):
         reach(ball, max_memory=0.0, **kw)
+
+
+def test_the_pieces_of_a_split_share_one_memory_budget():
+    # a budget that holds one whole analysis but not two pieces of about the same size
+    kw = dict(initial={"h": (9.0, 10.0)}, t_end=3.0, step=0.01)
+    ball = Path(__file__).resolve().parents[1] / "models" / "bouncing_ball.toml"
+    whole = reach(ball, **kw)
+    budget = 1.5 * whole.nbytes / 2**30
+    assert reach(ball, max_memory=budget, **kw).complete
+    split = reach(ball, max_memory=budget, split=2, **kw)
+    # each piece stops at the set that takes it past its part
+    overshoot = 2 * max(s.nbytes for s in split.sets)
+    assert not split.complete and split.nbytes <= budget * 2**30 + overshoot
+    assert any("kept by the other analyses sharing the budget" in reason
+               for reason in split.incomplete_reasons)

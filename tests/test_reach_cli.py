@@ -132,3 +132,15 @@ def test_incomplete_reach_exits_3(capsys):
     code, out, _ = _run(capsys, BALL, "--init", "h=5:6", "--t-end", "3", "--safe", "h >= -1",
                         "--max-jumps", "0", "--samples", "2")
     assert code == 3 and out.startswith("verdict: UNKNOWN: the reach result is incomplete")
+
+
+def test_a_command_without_a_time_budget_has_the_default_one(capsys, monkeypatch):
+    # 50,000 steps of the thermostat take far longer than the (lowered) default budget
+    import hybridlab.cli.reach as reach_command
+
+    monkeypatch.setattr(reach_command, "DEFAULT_TIME_BUDGET", 0.2)
+    thermostat = str(ROOT / "models" / "thermostat.toml")
+    code, out, _ = _run(capsys, thermostat, "--init", "T=19:21", "--param", "a=0.09:0.11",
+                        "--t-end", "500", "--step", "0.01", "--safe", "T <= 30",
+                        "--samples", "2")
+    assert code == 3 and "the time budget of 0.2 s ran out" in out

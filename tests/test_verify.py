@@ -408,6 +408,19 @@ def test_an_unproved_spec_is_refined_by_halving_the_default_step():
     assert not pieces.reach.nonlinear
 
 
+def test_a_verdict_keeps_at_most_max_memory_of_sets_over_all_its_analyses():
+    # the refinement above ends at 3,200 sets; while it runs, the coarser attempts it
+    # started from are held, so a budget of 1.05 times its own sets does not suffice
+    decay = hybridlab.loads_model(DECAY)
+    kw = dict(initial={"x": (1.0, 2.0)}, t_end=1.0, safe=f"x >= {math.exp(-1.0) - 1e-4!r}",
+              falsify_options=FalsifyOptions(samples=2, local_evals=0))
+    proved = check_safety(decay, **kw)
+    assert proved.status is VerdictStatus.SAFE and len(proved.reach.sets) == 3200
+    short = check_safety(decay, max_memory=1.05 * proved.reach.nbytes / 2**30, **kw)
+    assert short.status is VerdictStatus.UNKNOWN
+    assert "kept by the other analyses sharing the budget" in short.reason
+
+
 def test_executor_runs_split_pieces_and_a_bad_one_fails_before_any_work():
     kw = dict(initial={"h": (5.0, 6.0)}, t_end=0.5, safe="h >= -1", split=2,
               falsify_options=FalsifyOptions(samples=0, local_evals=0))

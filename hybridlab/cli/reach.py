@@ -132,6 +132,14 @@ def _print(verdict: Verdict) -> None:
     print(f"time: {verdict.time_s:.3g} s")
 
 
+DEFAULT_TIME_BUDGET = 1800.0
+"""Seconds a ``reach`` command's analyses take at most unless ``--time-budget`` says
+otherwise: every refinement of a verdict is bounded by its number of sets, but at the
+default 200,000 sets a stiff nonlinear model's halvings could take hours (the trolley to
+2.4 s: past 18 minutes and 3 GB with no answer); three times the slowest documented
+command."""
+
+
 def _run(args: argparse.Namespace) -> int:
     from hybridlab._files import replace_text
     from hybridlab.model.loader import load_model
@@ -234,8 +242,9 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
                    help="analyse K pieces along each uncertain direction of the initial set; "
                         "auto: bisect only the pieces that fail, where their set bends most")
     p.add_argument("--time-budget", type=_seconds, dest="time_budget", metavar="SECONDS",
+                   default=DEFAULT_TIME_BUDGET,
                    help="stop the reachability analysis after this long: UNKNOWN with the "
-                        "tightest bound so far")
+                        "tightest bound so far (default %(default)g)")
     p.add_argument("--step", type=_seconds, metavar="DT",
                    help="flowpipe time step (default: the horizon / 400, or less for fast "
                         "oscillations)")
@@ -251,7 +260,8 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
     p.add_argument("--max-sets", type=_positive, dest="max_sets", metavar="N",
                    help="budget of flowpipe sets (default 200000)")
     p.add_argument("--max-memory", type=float, dest="max_memory", metavar="GIB",
-                   help="budget of the kept flowpipe sets' memory in GiB (default 2)")
+                   help="budget of the kept flowpipe sets' memory in GiB, shared by all the "
+                        "analyses of the verdict (default 2)")
     p.add_argument("--lift-clocks", action="store_true", default=None, dest="lift_clocks",
                    help="step modes polynomial in their clocks as affine chains over the "
                         "clocks' monomials (timed references)")

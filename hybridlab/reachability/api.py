@@ -31,7 +31,7 @@ from hybridlab.simulation.executors import (
 from hybridlab.simulation.problem import HybridProblem, ProblemError
 from hybridlab.symbolic.compile import CompiledModel
 
-__all__ = ["ReachError", "check_observed", "default_step", "reach"]
+__all__ = ["ReachError", "check_observed", "default_step", "reach", "shared_memory"]
 
 
 class ReachError(HybridlabError, ValueError):
@@ -195,16 +195,17 @@ def reach(
     workers = opts.max_pieces if opts.split == "auto" else len(pieces)
     placement = place("serial" if executor is None else executor, workers, ReachError)
 
-    def analyse(pieces: list[Zonotope]) -> list[ReachResult]:
+    def analyse(pieces: list[Zonotope], held: int = 0) -> list[ReachResult]:
+        share = shared_memory(opts, held, len(pieces))
         if placement.executor is None or len(pieces) == 1:
-            return [run_analysis(system, opts, mode, piece, t0, t_end, p, stop)
+            return [run_analysis(system, share, mode, piece, t0, t_end, p, stop)
                     for piece in pieces]
         if placement.in_process:  # threads share the system: nothing is pickled
-            return _gather([placement.executor.submit(run_analysis, system, opts, mode,
+            return _gather([placement.executor.submit(run_analysis, system, share, mode,
                                                       piece, t0, t_end, p, stop)
                             for piece in pieces])
         return _gather([placement.executor.submit(run_piece, task) for task in
-                        _tasks(compiled, p, uncertain, bounded, opts, mode,
+                        _tasks(compiled, p, uncertain, bounded, share, mode,
                                pieces, t0, t_end, stop)])
 
     try:
@@ -213,6 +214,24 @@ def reach(
         return merge_results(analyse(pieces))
     finally:
         placement.shutdown()
+
+
+def shared_memory(options: ReachOptions, held: int, analyses: int) -> ReachOptions:
+    """``options`` for one of ``analyses`` analyses run together that share ``max_memory``
+    with sets of ``held`` bytes kept already: each may keep an equal part of what is left.
+
+    Examples
+    --------
+    >>> opts = ReachOptions(max_memory=2.0)
+    >>> shared_memory(opts, 0, 1) is opts
+    True
+    >>> shared_memory(opts, 2**30, 2).memory_held  # 1 GiB left, half of it for each
+    1.5
+    """
+    if held == 0 and analyses == 1:
+        return options
+    free = max(0.0, options.max_memory - options.memory_held - held / 2**30)
+    return options.updated(memory_held=options.max_memory - free / analyses)
 
 
 def check_observed(compiled: CompiledModel, names: Sequence[str]) -> None:

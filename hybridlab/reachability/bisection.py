@@ -82,15 +82,16 @@ def cut_axis(generators: np.ndarray, direction: np.ndarray | None,
     return int(np.argmin(np.asarray(cuts)))
 
 
-def bisect(analyse: Callable[[list[Zonotope]], list[ReachResult]], initial: Zonotope,
+def bisect(analyse: Callable[[list[Zonotope], int], list[ReachResult]], initial: Zonotope,
            max_pieces: int, deadline: float | None = None) -> ReachResult:
     """Analyse ``initial``, then the halves of every piece that failed, round by round.
 
     Parameters
     ----------
     analyse : callable
-        Maps a list of pieces to their results, in order (one round; it may run them in
-        parallel).
+        Maps a list of pieces and the bytes of the sets kept so far to the pieces'
+        results, in order (one round; it may run them in parallel, sharing what is left
+        of ``max_memory``).
     initial : Zonotope
         The initial set (states and uncertain parameters).
     max_pieces : int
@@ -115,7 +116,7 @@ def bisect(analyse: Callable[[list[Zonotope]], list[ReachResult]], initial: Zono
     ...     "modes": {"run": {"flow": {"x": "-x**3"}}}, "initial": {"mode": "run"}}))
     >>> p = cubic.parameter_vector()
     >>> system = build_system(cubic, p, {}, {})
-    >>> def analyse(pieces):
+    >>> def analyse(pieces, held):
     ...     return [run_analysis(system, ReachOptions(step=0.1), "run", P, 0.0, 1.0, p)
     ...             for P in pieces]
     >>> result = bisect(analyse, Zonotope([1.25], [[0.75]]), max_pieces=16)
@@ -131,7 +132,7 @@ def bisect(analyse: Callable[[list[Zonotope]], list[ReachResult]], initial: Zono
     kept: list[ReachResult] = []
     analysed = short = 0
     while pending:
-        results = analyse([Z for Z, _ in pending])
+        results = analyse([Z for Z, _ in pending], sum(r.nbytes for r in kept))
         analysed += len(pending)
         waiting: list[tuple[Zonotope, np.ndarray]] = []
         for (Z, cuts), result in zip(pending, results, strict=True):

@@ -268,7 +268,9 @@ class _Analysis:
         self.phases = Phases(system)
         self.phase_items = 0  # items entered in a phase by a split or a phase change
         self.records: list[tuple[int, ReachSet]] = []
-        self.kept_bytes = 0  # the kept sets' centres and generators (max_memory)
+        # the kept sets' centres and generators, with those that the analyses sharing
+        # the budget keep (max_memory)
+        self.kept_bytes = int(options.memory_held * 2**30)
         self.reasons: list[str] = []
         self.too_wide: set[str] = set()  # the reasons that are a set outgrowing a linearisation
         self.items: dict[int, Item] = {}
@@ -363,12 +365,14 @@ class _Analysis:
         if len(self.records) > self.options.max_sets:
             raise _Budget(f"max_sets={self.options.max_sets} flowpipe sets computed; the "
                           f"analysis stopped early (raise max_sets or the step)")
-        self.kept_bytes += sum(Z.center.nbytes + Z.generators.nbytes
-                               for Z in ({id(rs.set): rs.set, id(full): full}.values()))
+        self.kept_bytes += rs.nbytes
         if self.kept_bytes > self.options.max_memory * 2**30:
+            held = ("" if not self.options.memory_held else
+                    f", and {self.options.memory_held:.3g} GiB kept by the other analyses "
+                    f"sharing the budget")
             raise _Budget(f"max_memory={self.options.max_memory:g} GiB of flowpipe sets kept "
-                          f"({len(self.records)} sets); the analysis stopped early (raise "
-                          f"max_memory, or lower order or the number of branches)")
+                          f"({len(self.records)} sets here{held}); the analysis stopped early "
+                          f"(raise max_memory, or lower order or the number of branches)")
         if len(self.records) % 16 == 0:
             self._watch(item.mode, t1)
 

@@ -65,9 +65,14 @@ class ReachOptions:
         analysis as incomplete.
     max_memory : float
         Budget, in GiB, of the memory the kept flowpipe sets take (their centres
-        and generators) over all branches; exceeding it ends the analysis as
+        and generators) over all branches, shared by the pieces of a split initial
+        set and by a verdict's analyses; exceeding it ends the analysis as
         incomplete, with the reason (2 by default: an 18-state set of 437
         generators takes 63 KB).
+    memory_held : float
+        GiB of flowpipe sets that other analyses sharing ``max_memory`` keep (the
+        pieces of a split initial set, a verdict's earlier analyses); set by
+        :func:`hybridlab.reach` and by verdicts, 0 by default.
     remainder_iterations : int
         Attempts to find a linearisation remainder that encloses itself
         (nonlinear modes).
@@ -154,6 +159,7 @@ class ReachOptions:
     intersection: str = "lp"
     max_sets: int = 200_000
     max_memory: float = 2.0
+    memory_held: float = 0.0
     remainder_iterations: int = 8
     fixpoint: bool = True
     bloat: float = 0.0
@@ -189,6 +195,9 @@ class ReachOptions:
         if not (isinstance(self.max_memory, (int, float)) and 0 < self.max_memory < math.inf):
             raise ValueError(f"max_memory must be a positive number of GiB "
                              f"(got {self.max_memory!r})")
+        if not (isinstance(self.memory_held, (int, float)) and 0 <= self.memory_held < math.inf):
+            raise ValueError(f"memory_held must be a number of GiB >= 0 "
+                             f"(got {self.memory_held!r})")
         if not (isinstance(self.remainder_iterations, int) and self.remainder_iterations >= 1):
             raise ValueError("remainder_iterations must be a positive integer "
                              f"(got {self.remainder_iterations!r})")

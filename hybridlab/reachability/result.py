@@ -149,6 +149,23 @@ class ReachSet:
         return (f"ReachSet(mode={self.mode!r}, t=({self.t[0]:.6g}, {self.t[1]:.6g}), "
                 f"jumps={self.jumps}, bounds=[{b}])")
 
+    @property
+    def nbytes(self) -> int:
+        """Bytes of the kept sets' centres and generators (:attr:`set` and the set over
+        the extended state, counted once where they are one): what ``max_memory``
+        counts.
+
+        Examples
+        --------
+        >>> import hybridlab
+        >>> result = hybridlab.reach("models/thermostat.toml", initial={"T": (19.0, 21.0)},
+        ...                          t_end=1.0, step=0.1)
+        >>> result.sets[0].nbytes > 0, result.nbytes == sum(s.nbytes for s in result.sets)
+        (True, True)
+        """
+        kept = {id(self.set): self.set, id(self._full): self._full}.values()
+        return sum(Z.center.nbytes + Z.generators.nbytes for Z in kept)
+
     def bounds(self) -> np.ndarray:
         """Bounds of the states, shape ``(n, 2)``: the interval hull of :attr:`set`
         within the mode's linear invariant rows (exact, by a one-multiplier LP dual)."""
@@ -309,6 +326,11 @@ class ReachResult:
                 f"bounds={{{bounds}}}, t_span={self.t_span}, time_s={self.time_s:.3g}"
                 + (f", incomplete_reasons={list(self.incomplete_reasons)}"
                    if self.incomplete_reasons else "") + ")")
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of every set's centre and generators (:attr:`ReachSet.nbytes`)."""
+        return sum(s.nbytes for s in self.sets)
 
     def bound(self, expr: str | sp.Expr, mode: str | None = None) -> tuple[float, float]:
         """Enclosure of ``expr`` over every set (of ``mode``, if given)."""

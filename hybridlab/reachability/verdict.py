@@ -23,6 +23,7 @@ from __future__ import annotations
 import enum
 import math
 import time
+import weakref
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -348,6 +349,9 @@ def check(
     tried: list[str] = []  # the refinements run, for the reason
 
     max_sets = overrides.get("max_sets", getattr(options, "max_sets", None))
+    # the results of the attempts still referenced (those dropped leave the set)
+    alive: weakref.WeakSet[Any] = weakref.WeakSet()
+    held_before = float(overrides.get("memory_held", getattr(options, "memory_held", 0.0)))
 
     def attempt(stage: dict[str, Any], until: float | None = None, *,
                 stop: bool = False, again: bool = False, sets: int | None = None) -> _Attempt:
@@ -359,9 +363,14 @@ def check(
         extra: dict[str, Any] = {} if until is None else {"deadline": until}
         if sets is not None:
             extra["max_sets"] = sets if max_sets is None else min(sets, int(max_sets))
+        # one max_memory for the whole verdict: the analyses still held count against it
+        held = sum(r.nbytes for r in alive)
+        if held:
+            extra["memory_held"] = held_before + held / 2**30
         result = reach(problem, options=options, executor=executor,
                        stop_unproved=specs if until is not None or stop else (),
                        **{**overrides, **stage, **extra})
+        alive.add(result)
         return _Attempt.of(specs, result, stage)
 
     failures = (HybridlabError, ArithmeticError, NotImplementedError, RuntimeError)
