@@ -361,3 +361,37 @@ def test_elementary_functions_of_wide_models_enclose_their_values(name, kq):
     exact = f[1](2.0 + w * s)
     assert np.all(np.abs(exact - model) <= rad)
     assert rad < 3 * np.ptp(exact)  # an enclosure, not the whole line
+
+
+def _evaluate(B, coeffs: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """The polynomial at ``points`` (rows: the s and q variables in [-1, 1], tau in [0, 1])."""
+    return np.prod(points[:, None, :] ** B.exps[None, :, :], axis=2) @ coeffs
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_taylor_model_product_encloses_the_product_at_every_point(seed):
+    # random models over a basis that truncates (s^2 times s^2, tau^2 times tau), with
+    # coefficients over eight orders of magnitude and interval parts: the product's
+    # polynomial plus its interval holds every product of two values the factors allow
+    import hybridlab.reachability.taylor as taylor
+
+    rng = np.random.default_rng(seed)
+    B = taylor._basis(2, 1, 2, 2, 1)
+    assert B.truncates
+    a = (rng.standard_normal(B.size) * 10.0 ** rng.uniform(-4, 4, B.size), 0.01 * seed)
+    b = (rng.standard_normal(B.size) * 10.0 ** rng.uniform(-4, 4, B.size), 0.0)
+    c, rad = taylor._mul(B, a, b)
+    points = np.column_stack([rng.uniform(-1, 1, (4000, 3)), rng.uniform(0, 1, 4000)])
+    points[:8, :3] = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+    points[:8, 3] = 1.0
+    va, vb, vc = (_evaluate(B, x, points) for x in (a[0], b[0], c))
+    for u in (-1.0, 1.0):  # the factors' interval parts at their ends
+        assert np.all(np.abs((va + u * a[1]) * vb - vc) <= rad)
+    lo, hi = taylor._range(B, c)
+    assert lo <= vc.min() and vc.max() <= hi
+    # the monomials bounded one by one: s + s^2 over [-1, 1] is within [-1, 2] exactly
+    e = np.zeros(B.size)
+    e[B.s_index[0]] = 1.0
+    e[int(np.flatnonzero((B.exps == [2, 0, 0, 0]).all(axis=1))[0])] = 1.0
+    lo, hi = taylor._range(B, e)
+    assert -1.0 - 1e-12 < lo <= -1.0 and 2.0 <= hi < 2.0 + 1e-12

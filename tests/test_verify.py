@@ -408,6 +408,26 @@ def test_an_unproved_spec_is_refined_by_halving_the_default_step():
     assert not pieces.reach.nonlinear
 
 
+def test_a_verdict_prepares_its_system_once_for_all_its_analyses(monkeypatch):
+    # the refinements of the test above are four analyses; the system (and the derivatives
+    # its modes take) is built for the first and shared by the others
+    import hybridlab.reachability.api as api
+
+    prepared, analyses = [], []
+    monkeypatch.setattr(api, "prepare_reach",
+                        lambda problem, real=api.prepare_reach: prepared.append(real(problem))
+                        or prepared[-1])
+    monkeypatch.setattr(api, "reach_prepared", lambda prep, real=api.reach_prepared, **kw:
+                        analyses.append(prep) or real(prep, **kw))
+    decay = hybridlab.loads_model(DECAY)
+    verdict = check_safety(decay, initial={"x": (1.0, 2.0)}, t_end=1.0,
+                           safe=f"x >= {math.exp(-1.0) - 1e-4!r}",
+                           falsify_options=FalsifyOptions(samples=2, local_evals=0))
+    assert verdict.status is VerdictStatus.SAFE
+    assert len(prepared) == 1 and len(analyses) >= 4
+    assert all(prep is prepared[0] for prep in analyses)
+
+
 def test_a_verdict_keeps_at_most_max_memory_of_sets_over_all_its_analyses():
     # the refinement above ends at 3,200 sets; while it runs, the coarser attempts it
     # started from are held, so a budget of 1.05 times its own sets does not suffice

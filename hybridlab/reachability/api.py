@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import time as _time
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -31,7 +32,8 @@ from hybridlab.simulation.executors import (
 from hybridlab.simulation.problem import HybridProblem, ProblemError
 from hybridlab.symbolic.compile import CompiledModel
 
-__all__ = ["ReachError", "check_observed", "default_step", "reach", "shared_memory"]
+__all__ = ["PreparedReach", "ReachError", "check_observed", "default_step", "prepare_reach",
+           "reach", "reach_prepared", "shared_memory"]
 
 
 class ReachError(HybridlabError, ValueError):
@@ -128,6 +130,41 @@ def reach(
                                       initial=initial, mode=mode, inputs=inputs)
     except ProblemError as exc:
         raise ReachError(str(exc)) from None
+    return reach_prepared(prepare_reach(problem), options=options, executor=executor,
+                          stop_unproved=stop_unproved, **option_overrides)
+
+
+@dataclass(frozen=True, eq=False)
+class PreparedReach:
+    """A problem's equations prepared for reachability, for any number of analyses: the
+    extended system (its modes keep the derivatives they take, so analyses after the
+    first take none), the initial set over states, uncertain parameters and time, and
+    the problem's values."""
+
+    compiled: CompiledModel
+    system: System
+    mode: str
+    initial: Zonotope
+    t_start: float
+    t_end: float
+    p: np.ndarray
+    uncertain: dict[str, tuple[float, float]]
+    bounded: dict[str, tuple[float, float]]
+
+
+def prepare_reach(problem: HybridProblem) -> PreparedReach:
+    """``problem`` prepared for :func:`reach_prepared`; a :class:`ReachError` for an input
+    outside the flows or a schedule set by an uncertain parameter.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> from hybridlab.simulation.problem import HybridProblem
+    >>> problem = HybridProblem.build("models/thermostat.toml", 1.0, initial={"T": (19.0, 21.0)})
+    >>> prepared = prepare_reach(problem)
+    >>> [reach_prepared(prepared, step=step).complete for step in (0.1, 0.05)]
+    [True, True]
+    """
     compiled, p, mode = problem.compiled, problem.p0, problem.mode
     t0, t_end = problem.t_start, problem.t_end
     uncertain, bounded = dict(problem.param_box), dict(problem.input_box)
@@ -180,6 +217,19 @@ def reach(
 
     # discrete variables constant in a mode stop being read there (pieces of P0 keep them)
     system = with_constants(system, mode_constants(system, mode, P0))
+    return PreparedReach(compiled, system, mode, P0, t0, t_end, p, uncertain, bounded)
+
+
+def reach_prepared(prepared: PreparedReach, options: ReachOptions | None = None,
+                   executor: Any = None, stop_unproved: Sequence[Spec] = (),
+                   **option_overrides: Any) -> ReachResult:
+    """:func:`reach` of a prepared problem (the arguments as there): the analyses of one
+    problem share its system and the derivatives its modes have taken."""
+    check_executor(executor, ReachError)
+    compiled, system, mode, P0 = (prepared.compiled, prepared.system, prepared.mode,
+                                  prepared.initial)
+    t0, t_end, p = prepared.t_start, prepared.t_end, prepared.p
+    uncertain, bounded = prepared.uncertain, prepared.bounded
     opts = (options or ReachOptions()).updated(**option_overrides)
     check_observed(compiled, opts.observed)
     if opts.step is None:

@@ -455,15 +455,14 @@ class Zonotope:
             return Zonotope([0.5 * (lo_x + hi_x)], [[np.nextafter(0.5 * (hi_x - lo_x), np.inf)]])
         lo, hi = -np.ones(d.size), np.ones(d.size)
         room = s + slack + spread  # s minus the others' minimum, before removing |d_i|
-        with np.errstate(over="ignore"):  # room >= 0: a tiny d_i only pushes its limit out
-            for i in np.flatnonzero(np.abs(d) > 1e-300):
-                limit = (room - abs(d[i])) / d[i]
-                if d[i] > 0:
-                    hi[i] = min(hi[i], limit * (1 + SLACK) + TINY if limit > 0 else
-                                limit * (1 - SLACK) + TINY)
-                else:
-                    lo[i] = max(lo[i], limit * (1 + SLACK) - TINY if limit < 0 else
-                                limit * (1 - SLACK) - TINY)
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+            # room >= 0: a tiny d_i only pushes its limit out (d_i = 0 limits nothing)
+            limit = (room - np.abs(d)) / d
+            up_hi = np.where(limit > 0, limit * (1 + SLACK), limit * (1 - SLACK)) + TINY
+            down_lo = np.where(limit < 0, limit * (1 + SLACK), limit * (1 - SLACK)) - TINY
+        rising, falling = d > 1e-300, d < -1e-300
+        hi[rising] = np.minimum(1.0, up_hi[rising])
+        lo[falling] = np.maximum(-1.0, down_lo[falling])
         if np.any(lo > hi):
             return None
         mid, rad = 0.5 * (lo + hi), 0.5 * (hi - lo)
@@ -506,13 +505,17 @@ class Zonotope:
         # the candidate eliminations and the halfspace cut, the least spread kept
         # (each coordinate in units of its own width; a point coordinate by its magnitude)
         scale = np.maximum(self.radius(), 1e-9 * np.abs(self.center) + TINY)
-        best, spread = Z, float(np.sum(Z.radius() / scale))
+        best: Zonotope | tuple[np.ndarray, np.ndarray, np.ndarray] = Z
+        spread = float(np.sum(Z.radius() / scale))
         for j in self._elimination_candidates(a):
-            pinned = self._eliminated(a, t_lo, t_hi, j)
-            size = float(np.sum(pinned.radius() / scale))
+            center, G, err = self._eliminated(a, t_lo, t_hi, j)
+            size = float(np.sum((np.sum(np.abs(G), axis=1) + err) / scale))
             if size < spread:
-                best, spread = pinned, size
-        return best
+                best, spread = (center, G, err), size
+        if isinstance(best, Zonotope):
+            return best
+        center, G, err = best
+        return Zonotope(center, np.hstack([G, np.diag(err)])).compact()
 
     def _elimination_candidates(self, a: np.ndarray) -> list[int]:
         """The generators most aligned with ``a`` whose elimination is well conditioned."""
@@ -522,8 +525,10 @@ class Zonotope:
         order = np.argsort(-d)
         return [int(j) for j in order[:4] if usable[j]]
 
-    def _eliminated(self, a: np.ndarray, t_lo: float, t_hi: float, j: int) -> Zonotope:
-        """:meth:`intersect_slab` by eliminating generator ``j``."""
+    def _eliminated(self, a: np.ndarray, t_lo: float, t_hi: float, j: int
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`intersect_slab` by eliminating generator ``j``: the zonotope's centre,
+        its generators and the box of the elimination's rounding (its radii)."""
         G, c = self.generators, self.center
         n, m = G.shape
         abs_a = np.abs(a)
@@ -543,8 +548,7 @@ class Zonotope:
                + 4 * U * (np.abs(c) + abs_q * (abs(t_mid) + abs(ac)))
                + 2 * U * (np.sum(np.abs(G), axis=1) + abs_q * float(np.sum(np.abs(d))))
                + U * abs_q * t_rad)
-        err = up(err, m + 8)
-        return Zonotope(center, np.hstack([G_new, (q * t_rad)[:, None], np.diag(err)])).compact()
+        return center, np.hstack([G_new, (q * t_rad)[:, None]]), up(err, m + 8)
 
     def may_intersect(self, a: ArrayLike, b: float) -> bool:
         """Whether some point satisfies ``a . x <= b``."""

@@ -190,13 +190,14 @@ class _Basis:
     kt: int
     exps: np.ndarray  # (M, m + n + 1) exponents; row 0 is the constant
     even: np.ndarray  # (M,) whether every s and q exponent is even (range [0, 1])
+    even_index: np.ndarray  # the indices of the even monomials but the constant
     tau: np.ndarray  # (M,) tau exponent
     q_groups: np.ndarray  # (n, G) indices of q_i s^alpha (tau^0), q_i first
     s_index: np.ndarray  # (m,) index of s_j (tau^0)
     keep_i: np.ndarray  # the kept products a_i b_j: i ...
     keep_j: np.ndarray  # ... j ...
     keep_target: np.ndarray  # ... the monomial each lands on ...
-    keep_even: np.ndarray  # ... and whether it is even
+    keep_even: np.ndarray  # ... and the indices of those that are even
     parity: np.ndarray  # (M,) class of the monomial's s and q exponents modulo 2
     classes: int  # number of parity classes (a product is even iff both share one)
     truncates: bool  # whether some products are truncated
@@ -272,9 +273,11 @@ def _basis(m: int, n: int, kq: int, kt: int, kx: int) -> _Basis:
     q_groups = ((first_q + np.arange(n)[:, None] * len(crosses)
                  + np.arange(len(crosses))[None, :]) * T).astype(np.int64)
     M = exps.shape[0]
-    return _Basis(m, n, kq, kt, exps, np.all(exps[:, :m + n] % 2 == 0, axis=1), exps[:, -1],
+    even = np.all(exps[:, :m + n] % 2 == 0, axis=1)
+    return _Basis(m, n, kq, kt, exps, even, np.flatnonzero(even[1:]) + 1, exps[:, -1],
                   q_groups, s_index, keep_i, keep_j, keep_target,
-                  parity[keep_i] == parity[keep_j], parity, int(parity.max()) + 1,
+                  np.flatnonzero(parity[keep_i] == parity[keep_j]), parity,
+                  int(parity.max()) + 1,
                   keep_i.size < M * M,
                   int(np.max(np.bincount(keep_target, minlength=M))))
 
@@ -292,14 +295,15 @@ def _centred(lo: float, hi: float) -> tuple[float, float]:
 def _range(B: _Basis, c: np.ndarray) -> tuple[float, float]:
     """An enclosure of the polynomial's range over the domain (monomials bounded one by
     one: ``[0, 1]`` when every s and q exponent is even, ``[-1, 1]`` otherwise)."""
-    rest = c[1:]
-    ev = B.even[1:]
-    a = np.abs(rest)
-    hi_terms = np.where(ev, np.maximum(rest, 0.0), a)
-    lo_terms = np.where(ev, np.minimum(rest, 0.0), -a)
-    err = _up(gamma(B.size + 4) * (abs(c[0]) + float(np.sum(a))), 4)
-    hi = math.nextafter(float(c[0] + np.sum(hi_terms)) + err, math.inf)
-    lo = math.nextafter(float(c[0] + np.sum(lo_terms)) - err, -math.inf)
+    # every term spans [-|c_k|, |c_k|] but an even one's, which spans [min(c_k, 0),
+    # max(c_k, 0)]: |c_k| less max(-c_k, 0) above and less max(c_k, 0) below
+    spread = float(np.sum(np.abs(c[1:])))
+    even = c[B.even_index]
+    above, below = float(np.sum(np.maximum(even, 0.0))), float(np.sum(np.maximum(-even, 0.0)))
+    # three sums of at most M terms and the four operations below, relative to |c|_1
+    err = _up(gamma(3 * B.size + 8) * (abs(c[0]) + spread), 4)
+    hi = math.nextafter(float(c[0]) + (spread - below) + err, math.inf)
+    lo = math.nextafter(float(c[0]) - (spread - above) - err, -math.inf)
     return lo, hi
 
 
@@ -338,7 +342,7 @@ def _const(B: _Basis, k: float, k_rad: float) -> TM:
 
 def _mul(B: _Basis, a: TM, b: TM, rough: bool = False) -> TM:
     """``a * b``; ``rough``: the kept terms only, no interval part (not an enclosure)."""
-    prod = a[0][B.keep_i] * b[0][B.keep_j]
+    prod = np.take(a[0], B.keep_i) * np.take(b[0], B.keep_j)
     c = np.bincount(B.keep_target, weights=prod, minlength=B.size)
     if rough:
         return c, 0.0
@@ -368,7 +372,9 @@ def _truncated(B: _Basis, a: np.ndarray, b: np.ndarray, kept: np.ndarray) -> tup
     truncated sums are those minus the kept ones, each a sum of non-negative rounded
     products, so ``g (total + kept)`` covers the rounding of both and of the products.
     """
-    g = gamma(B.keep_i.size + 2 * B.size + 8)
+    # the sums of non-negative terms below: over the M monomials' classes, and over the
+    # kept products twice (all of them, the even ones), whose difference is the odd ones'
+    g = gamma(2 * B.keep_i.size + 2 * B.size + 10)
     ap, an = np.maximum(a, 0.0), np.maximum(-a, 0.0)
     bp, bn = np.maximum(b, 0.0), np.maximum(-b, 0.0)
     n = B.classes
@@ -377,10 +383,10 @@ def _truncated(B: _Basis, a: np.ndarray, b: np.ndarray, kept: np.ndarray) -> tup
     even_hi = float(sap @ sbp + san @ sbn)  # sum of max(a_i b_j, 0) over even pairs
     even_lo = float(sap @ sbn + san @ sbp)  # sum of max(-a_i b_j, 0) over even pairs
     total = float(np.sum(ap + an)) * float(np.sum(bp + bn))
-    ke = B.keep_even
-    kept_hi = float(np.sum(np.maximum(kept, 0.0)[ke]))
-    kept_lo = float(np.sum(np.maximum(-kept, 0.0)[ke]))
-    kept_odd = float(np.sum(np.abs(kept[~ke])))
+    even = kept[B.keep_even]
+    kept_hi = float(np.sum(np.maximum(even, 0.0)))
+    kept_lo = float(np.sum(np.maximum(-even, 0.0)))
+    kept_odd = max(0.0, float(np.sum(np.abs(kept))) - (kept_hi + kept_lo))
 
     def rest(whole: float, part: float) -> float:
         return max(0.0, _up(whole - part + g * (whole + part), 4))

@@ -328,7 +328,8 @@ def check(
                        f"reachability was not attempted (prove=False); {_evidence(found)}",
                        falsification=found, time_s=time.perf_counter() - started)
 
-    from hybridlab.reachability import reach  # the flowpipes: a sibling module
+    # the flowpipes: a sibling module
+    from hybridlab.reachability.api import PreparedReach, prepare_reach, reach_prepared
 
     # refinements where the flowpipes prove too little, each only if the caller left that
     # knob alone: the step halved while each halving tightens the failing bound, then the
@@ -349,6 +350,7 @@ def check(
     tried: list[str] = []  # the refinements run, for the reason
 
     max_sets = overrides.get("max_sets", getattr(options, "max_sets", None))
+    prepared: list[PreparedReach] = []
     # the results of the attempts still referenced (those dropped leave the set)
     alive: weakref.WeakSet[Any] = weakref.WeakSet()
     held_before = float(overrides.get("memory_held", getattr(options, "memory_held", 0.0)))
@@ -367,9 +369,11 @@ def check(
         held = sum(r.nbytes for r in alive)
         if held:
             extra["memory_held"] = held_before + held / 2**30
-        result = reach(problem, options=options, executor=executor,
-                       stop_unproved=specs if until is not None or stop else (),
-                       **{**overrides, **stage, **extra})
+        if not prepared:  # once: every attempt shares the system and its derivatives
+            prepared.append(prepare_reach(problem))
+        result = reach_prepared(prepared[0], options=options, executor=executor,
+                                stop_unproved=specs if until is not None or stop else (),
+                                **{**overrides, **stage, **extra})
         alive.add(result)
         return _Attempt.of(specs, result, stage)
 
