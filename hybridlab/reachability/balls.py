@@ -40,8 +40,7 @@ def to_arb(M: np.ndarray) -> arb_mat:
     >>> to_arb(np.eye(2)).nrows()
     2
     """
-    M = np.atleast_2d(np.asarray(M, dtype=float))
-    return arb_mat([[float(v) for v in row] for row in M])
+    return arb_mat(np.atleast_2d(np.asarray(M, dtype=float)).tolist())
 
 
 def scalar_bounds(x: arb) -> tuple[float, float]:
@@ -69,12 +68,12 @@ def enclosure(X: arb_mat) -> tuple[np.ndarray, np.ndarray]:
     >>> bool(abs(mid[0, 0] - 1 / 3) <= rad[0, 0] < 1e-15)
     True
     """
-    rows, cols = X.nrows(), X.ncols()
-    lo = np.empty((rows, cols))
-    hi = np.empty((rows, cols))
-    for i in range(rows):
-        for j in range(cols):
-            lo[i, j], hi[i, j] = scalar_bounds(X[i, j])
+    shape = (X.nrows(), X.ncols())
+    entries = X.entries()
+    # each end rounded to the nearest float, then moved outward (as scalar_bounds does;
+    # a ball that is not finite has an infinite or NaN end, caught below)
+    lo = np.nextafter([float(x.lower()) for x in entries], -np.inf).reshape(shape)
+    hi = np.nextafter([float(x.upper()) for x in entries], np.inf).reshape(shape)
     mid = 0.5 * lo + 0.5 * hi
     rad = np.nextafter(np.maximum(hi - mid, mid - lo), np.inf)
     bad = ~np.isfinite(mid) | ~np.isfinite(rad)
