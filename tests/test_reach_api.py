@@ -330,5 +330,5 @@ def test_the_pieces_of_a_split_share_one_memory_budget():
     # each piece stops at the set that takes it past its part
     overshoot = 2 * max(s.nbytes for s in split.sets)
     assert not split.complete and split.nbytes <= budget * 2**30 + overshoot
-    assert any("kept by the other analyses sharing the budget" in reason
+    assert any("held for the other analyses sharing the budget" in reason
                for reason in split.incomplete_reasons)

@@ -438,7 +438,7 @@ def test_a_verdict_keeps_at_most_max_memory_of_sets_over_all_its_analyses():
     assert proved.status is VerdictStatus.SAFE and len(proved.reach.sets) == 3200
     short = check_safety(decay, max_memory=1.05 * proved.reach.nbytes / 2**30, **kw)
     assert short.status is VerdictStatus.UNKNOWN
-    assert "kept by the other analyses sharing the budget" in short.reason
+    assert "held for the other analyses sharing the budget" in short.reason
 
 
 def test_executor_runs_split_pieces_and_a_bad_one_fails_before_any_work():

@@ -224,7 +224,17 @@ def reach_prepared(prepared: PreparedReach, options: ReachOptions | None = None,
                    executor: Any = None, stop_unproved: Sequence[Spec] = (),
                    **option_overrides: Any) -> ReachResult:
     """:func:`reach` of a prepared problem (the arguments as there): the analyses of one
-    problem share its system and the derivatives its modes have taken."""
+    problem share its system and the derivatives its modes have taken.
+
+    Examples
+    --------
+    >>> import hybridlab
+    >>> from hybridlab.simulation.problem import HybridProblem
+    >>> prepared = prepare_reach(HybridProblem.build("models/bouncing_ball.toml", 1.0,
+    ...                                              initial={"h": (9.0, 10.0)}))
+    >>> reach_prepared(prepared, step=0.01).bounds["h"][1] >= 10.0
+    True
+    """
     check_executor(executor, ReachError)
     compiled, system, mode, P0 = (prepared.compiled, prepared.system, prepared.mode,
                                   prepared.initial)

@@ -368,7 +368,7 @@ class _Analysis:
         self.kept_bytes += rs.nbytes
         if self.kept_bytes > self.options.max_memory * 2**30:
             held = ("" if not self.options.memory_held else
-                    f", and {self.options.memory_held:.3g} GiB kept by the other analyses "
+                    f", and {self.options.memory_held:.3g} GiB held for the other analyses "
                     f"sharing the budget")
             raise _Budget(f"max_memory={self.options.max_memory:g} GiB of flowpipe sets kept "
                           f"({len(self.records)} sets here{held}); the analysis stopped early "
