@@ -135,9 +135,9 @@ def _print(verdict: Verdict) -> None:
 DEFAULT_TIME_BUDGET = 1800.0
 """Seconds a ``reach`` command's analyses take at most unless ``--time-budget`` says
 otherwise: every refinement of a verdict is bounded by its number of sets, but at the
-default 200,000 sets a stiff nonlinear model's halvings could take hours (the trolley to
-2.4 s: past 13 minutes and 3 GB with no answer); three times the slowest documented
-command."""
+default 200,000 sets a stiff nonlinear model's halvings could take hours (an 18-state cart
+with a pendulum to 2.4 s: past 13 minutes and 3 GB with no answer); three times the slowest
+documented command."""
 
 
 def _run(args: argparse.Namespace) -> int:

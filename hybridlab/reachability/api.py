@@ -139,7 +139,16 @@ class PreparedReach:
     """A problem's equations prepared for reachability, for any number of analyses: the
     extended system (its modes keep the derivatives they take, so analyses after the
     first take none), the initial set over states, uncertain parameters and time, and
-    the problem's values."""
+    the problem's values.
+
+    Examples
+    --------
+    >>> from hybridlab.simulation.problem import HybridProblem
+    >>> prepared = prepare_reach(HybridProblem.build("models/thermostat.toml", 1.0,
+    ...                                              initial={"T": (19.0, 21.0)}))
+    >>> prepared.mode, prepared.initial.bounds().round(9).tolist(), prepared.t_end
+    ('heat', [[19.0, 21.0]], 1.0)
+    """
 
     compiled: CompiledModel
     system: System
