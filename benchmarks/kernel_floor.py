@@ -75,7 +75,7 @@ def _steps(model_address, ints, mode, x0, p, n_sig, sliding, count, method, rtol
             slm[k] = True
             sig[k] = 0.0
     W = workspace(n, n_sig)
-    fc = _fc(ints, mode, slm, W)
+    fc = _fc(ints, mode, slm, W, np.empty(max(n_sig, 1), dtype=np.int64))
     K = np.empty((N_K[method], n))
     coef = np.zeros((N_COEF[method], n))
     y_new, f_new, f, tmp, scale = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)

@@ -17,7 +17,7 @@ import numpy as np
 from scipy.integrate._ivp import dop853_coefficients as _dop
 from scipy.integrate._ivp.rk import RK45 as _RK45
 
-from hybridlab.simulation.compiled.signatures import borrowing, ptr, ptr_at
+from hybridlab.simulation.compiled.signatures import borrowing, counted, ptr, ptr_at
 from hybridlab.simulation.compiled.sliding import OP_FLOW, rhs
 
 __all__ = ["RK45", "DOP853", "METHOD_CODES", "ptr", "rk_step", "dense_coefficients",
@@ -89,7 +89,7 @@ def _rms(v: np.ndarray) -> float:
     return np.linalg.norm(v) / v.size ** 0.5
 
 
-@numba.njit(cache=True)
+@counted
 def initial_step(model, fc, t0, y0, f0, t_bound, max_step, order, rtol, atol, p, sig):
     """scipy's ``select_initial_step``."""
     interval = abs(t_bound - t0)

@@ -46,6 +46,7 @@ from hybridlab.simulation.compiled.layout import (
     KernelResult,
     LocateWorkspace,
     Monitors,
+    RunBuffers,
 )
 from hybridlab.simulation.compiled.locate import (
     EXIT,
@@ -66,7 +67,9 @@ from hybridlab.simulation.compiled.opcodes import (
     OP_RESET,
 )
 from hybridlab.simulation.compiled.signatures import (
+    borrowing,
     clock_at,
+    counted,
     gil_ensure_at,
     gil_release_at,
     interrupt_at,
@@ -75,7 +78,6 @@ from hybridlab.simulation.compiled.signatures import (
 )
 from hybridlab.simulation.compiled.sliding import (
     OK,
-    active_indices,
     enter_mode,
     flag_index,
     flow_eq,
@@ -122,7 +124,7 @@ def _grow(a, n):
 _sched_index = numba.njit(cache=True)(schedule_index)
 
 
-@numba.njit(cache=True)
+@counted
 def _zeno_record(ztimes, zcount, key, t, window, tol, resolution):
     """ZenoTracker.record; returns ``(zeno, ratio, accumulation_time)``."""
     w1 = window + 1
@@ -152,7 +154,7 @@ def _zeno_record(ztimes, zcount, key, t, window, tol, resolution):
     return False, 0.0, 0.0
 
 
-@numba.njit(cache=True)
+@counted
 def _zeno_stop(ztimes, zcount, key, t, window, tol, resolution, info):
     """Record an event of Zeno key ``key``; True, with ``info`` (key, count, ratio,
     accumulation time) filled, when the events accumulate."""
@@ -162,20 +164,30 @@ def _zeno_stop(ztimes, zcount, key, t, window, tol, resolution, info):
     return zeno
 
 
-@numba.njit(cache=True)
-def _fc(tables, m, slm, W):
-    """The flow context of mode ``m`` with the sliding set ``slm`` (see :mod:`.sliding`)."""
+@numba.njit(cache=True, inline="always")
+def _fc(tables, m, slm, W, sl_buffer):
+    """The flow context of mode ``m`` with the sliding set ``slm`` (see :mod:`.sliding`).
+
+    Inlined: a call would count a reference to each of the tables' arrays on the way
+    in and out, at every event. The sliding indices are a view of ``sl_buffer``, which
+    the previous context's view shares: that context is dead once this one is made.
+    """
     ns = tables.n_switches[m]
-    sl = active_indices(slm, ns)
+    c = 0
+    for k in range(ns):
+        if slm[k]:
+            sl_buffer[c] = k
+            c += 1
+    sl = sl_buffer[:c]
     act = tables.active_list[tables.active_ptr[m]:tables.active_ptr[m + 1]]
     return FlowContext(tables.flow_group[m], tables.switch_group[m], tables.grad_group[m],
                        tables.dsigma_group[m], ns, sl, W, tables.slide_group[m],
                        tables.switch_free[m], act)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _log(EV, nev, t, j, ref, source, target, kind, grazing, pre, post):
-    EV = _grow(EV, nev)
+    """Record an event in row ``nev`` of ``EV``, which has room for it."""
     n = pre.size
     EV[nev, 0] = t
     EV[nev, 1] = j
@@ -184,42 +196,186 @@ def _log(EV, nev, t, j, ref, source, target, kind, grazing, pre, post):
     EV[nev, 4] = target
     EV[nev, 5] = kind
     EV[nev, 6] = 1.0 if grazing else 0.0
-    EV[nev, 7:7 + n] = pre
-    EV[nev, 7 + n:7 + 2 * n] = post
-    return EV
+    for i in range(n):
+        EV[nev, 7 + i] = pre[i]
+        EV[nev, 7 + n + i] = post[i]
 
 
-@numba.njit(cache=True, nogil=True)
-def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, m, t_end, p,
-               n_sig, ztimes, zcount, sched_done, watch):
-    """Run from ``(t, x, m)`` to ``t_end``; see the module docstring for the records.
+#: how :func:`_steps` ends: the segment's steps are done (or stopped: see its code), the
+#: records need room for one more step, the sampler's workspace must grow
+_DONE, _ROOM, _RESAMPLE = 0, 1, 2
 
-    The kernel releases the GIL: runs in several threads go on in parallel.
 
-    ``watch``: the step budget, the addresses of ``PyOS_InterruptOccurred`` (0:
-    Ctrl-C is not looked for, as in a thread other than the main one, which never
-    receives it) and ``clock_gettime``, the clock's id, the wall-clock deadline in
-    its nanoseconds (0: none), and the addresses of ``PyGILState_Ensure`` and
-    ``PyGILState_Release``, between which it looks for Ctrl-C. Every
-    :data:`_WATCH_EVERY` steps the kernel looks at the clock, and for Ctrl-C when
-    :data:`_LOOK_EVERY_NS` have passed since it last did (every time, without a
-    clock), and stops with :data:`INTERRUPTED` or :data:`TIME_LIMIT`; after
-    ``watch[0]`` steps it stops with :data:`STEP_LIMIT`.
+@borrowing
+def _steps(model, box, md, p, ws, sw, bx, b, tr_guard, inv_group, flag, armed, has_floor,
+           floors, bounded, opts_i, opts_f, t, t_stop, h_abs, h_last, ST, nst, PT, npt,
+           hit_rows, watch, next_look):
+    """A flow segment's integrator steps, from ``(t, b.x)`` with the flow ``b.f``.
 
-    ``model_address`` and ``box_address`` are the addresses of the generated
-    model's point and box functions (:mod:`.codegen`; ``cfunc.address``).
+    Each step is taken, its dense output formed, its monitors bounded or scanned, and
+    it is recorded in ``ST`` and ``PT``; ``b.x`` and ``b.f`` move with it. The steps end
+    at ``t_stop``, at the first step in which monitors fire (then ``b.x`` is the state at
+    the event, the monitors are ``hit_rows[:hit_n]`` and ``b.hit_grazing[:hit_n]``), or with
+    a code: ``HANDOFF``, a budget (:data:`STEP_LIMIT`, :data:`TIME_LIMIT`,
+    :data:`INTERRUPTED`).
 
-    ``tables``: the model's :class:`~.layout.ModelTables`. ``reals``: per
-    transition period, phase. Returns the records, the final run state and the
-    checkpoint (meaningful for :data:`HANDOFF`), as a :class:`~.layout.KernelResult`.
+    It borrows every array (no reference is counted in the loop, which runs once per
+    step) and allocates nothing: where the records are full (:data:`_ROOM`) or the
+    sampler outgrows ``sw`` (:data:`_RESAMPLE`) it returns before the step changes
+    anything, and the kernel grows the arrays and calls again, which retakes the same
+    step. Returns ``(status, code, t, h_abs, h_last, nst, npt, hit_n, next_look)``.
+
+    Its buffers come in ``b`` and its options in ``opts_i`` and ``opts_f`` (as
+    :func:`run_kernel` has them): CPython passes a call of more than 30 arguments as a
+    built tuple, which numba then types as a tuple of first-class functions, an
+    experimental feature it warns about.
     """
-    model, box = model_at(model_address), model_at(box_address)
-    max_steps, interrupted, clock = watch[0], interrupt_at(watch[1]), clock_at(watch[2])
-    clock_id, deadline = np.int32(watch[3]), watch[4]
-    gil_ensure, gil_release = gil_ensure_at(watch[5]), gil_release_at(watch[6])
+    sig, x, fcur, K, y_new, f_new, tmp, scale, coef = (b.sig, b.x, b.f, b.stages, b.y_new,
+                                                        b.f_new, b.tmp, b.scale, b.coef)
+    stats, hit_graz, now = b.stats, b.hit_grazing, b.now
+    method, samples, max_refine = opts_i[0], opts_i[1], opts_i[2]
+    rtol, atol, max_step, event_tol, event_atol = (opts_f[0], opts_f[1], opts_f[2], opts_f[3],
+                                                   opts_f[4])
+    fc = md.context
+    act = fc.active
+    M = armed.size
+    n = x.size
+    nc = coef.shape[0]
+    max_steps, clock_id, deadline = watch[0], np.int32(watch[3]), watch[4]
     timed = watch[2] != 0  # the clock is read only where the C library has one
-    next_look = 0
-    now = np.zeros(2, dtype=np.int64)
+    code = COMPLETED
+    while True:
+        if nst >= ST.shape[0] or npt >= PT.shape[0]:
+            return _ROOM, code, t, h_abs, h_last, nst, npt, 0, next_look
+        ok, t_new, h_next, h = rk_step(model, method, fc, t, x, fcur, t_stop, h_abs, max_step,
+                                       rtol, atol, p, sig, K, y_new, f_new, tmp, scale)
+        stats[0] += 1
+        if not ok or flag[0] != 0:
+            return _DONE, HANDOFF, t, h_next, h_last, nst, npt, 0, next_look
+        t_old = t
+        dense_coefficients(model, method, fc, t_old, h, x, y_new, f_new, p, sig, K, tmp, coef)
+        step = DenseStep(method, coef, t_old, h, x, act)
+        if bounded and quiet_step(box, md, p, sig, step, t_old, t_new, event_atol, armed, bx,
+                                  tr_guard, inv_group):
+            nfire = 0
+            stats[4] += 1
+        else:
+            nfire = scan(model, md, p, sig, ws, sw, step, armed, has_floor, floors, t_old,
+                         t_new, samples, max_refine, event_tol, event_atol, stats)
+            if nfire == OUTGROWN:  # nothing changed but the step count
+                stats[0] -= 1
+                return _RESAMPLE, code, t, h_abs, h_last, nst, npt, 0, next_look
+            for r in range(M):
+                armed[r] = sw.armed[r]
+        h_abs = h_next
+        h_last = t_new - t_old
+        if flag[0] != 0:
+            return _DONE, HANDOFF, t, h_abs, h_last, nst, npt, 0, next_look
+        for r in range(M):
+            if armed[r]:
+                has_floor[r] = False
+        ST[nst, 0] = t_old
+        ST[nst, 1] = h
+        for i in range(n):
+            ST[nst, 2 + i] = x[i]
+        for c in range(nc):
+            for i in range(n):
+                ST[nst, 2 + n + c * n + i] = coef[c, i]
+        nst += 1
+        if nfire > 0:
+            t_event = sw.at[0]
+            for i in range(1, nfire):
+                t_event = min(t_event, sw.at[i])
+            dense_eval(method, coef, t_old, h, x, act, t_event, tmp)
+            for i in range(n):
+                x[i] = tmp[i]
+            PT[npt, 0] = t_event
+            for i in range(n):
+                PT[npt, 1 + i] = x[i]
+            npt += 1
+            for i in range(nfire):
+                hit_rows[i] = sw.rows[i]
+                hit_graz[i] = sw.grazing[i]
+            return _DONE, code, t_event, h_abs, h_last, nst, npt, nfire, next_look
+        PT[npt, 0] = t_new
+        for i in range(n):
+            PT[npt, 1 + i] = y_new[i]
+            x[i] = y_new[i]
+            fcur[i] = f_new[i]
+        npt += 1
+        t = t_new
+        if stats[0] >= max_steps:
+            code = STEP_LIMIT
+        elif stats[0] % _WATCH_EVERY == 0:
+            now_ns = 0
+            if timed:
+                clock_at(watch[2])(clock_id, ptr(now))
+                now_ns = now[0] * 1_000_000_000 + now[1]
+            hit = 0
+            if watch[1] != 0 and (not timed or now_ns >= next_look):
+                next_look = now_ns + _LOOK_EVERY_NS
+                held = gil_ensure_at(watch[5])()  # CPython's flag is read under the GIL
+                hit = interrupt_at(watch[1])()
+                gil_release_at(watch[6])(held)
+            if hit != 0:
+                code = INTERRUPTED
+            elif deadline > 0 and now_ns >= deadline:
+                code = TIME_LIMIT
+        if t_new >= t_stop or code != COMPLETED:
+            return _DONE, code, t, h_abs, h_last, nst, npt, 0, next_look
+
+
+#: the run loop's state between two calls of :func:`_run` (``si``: integers, ``sf``: reals)
+_S_ACTION, _S_MODE, _S_JUMPS, _S_NEV, _S_NPT, _S_NST, _S_NSG, _S_HITS, _S_CODE = range(9)
+_S_LOOK, _S_PHASE, _S_PASS, _S_PREVIOUS, _S_M, _S_BOUNDED, _S_LAST_MODE, _S_NEED = range(9, 17)
+_N_SI = 17
+_F_T, _F_H_LAST, _F_H_ABS, _F_T_STOP, _F_LAST_T = range(5)
+_N_SF = 5
+#: where :func:`_run` resumes: at the start of an action, at a pass of the event iteration,
+#: in a flow segment's steps
+_AT_ACTION, _AT_PASS, _AT_STEPS = 0, 1, 2
+#: how :func:`_run` returns: the run is over (its code says how), the records need room
+#: (``EV`` for ``si[_S_NEED]`` rows, ``SG``, ``PT`` and ``ST`` for one more), the
+#: sampler's workspace must grow
+_OVER, _GROW, _GROW_SAMPLES = 0, 1, 2
+
+
+@numba.njit(cache=True, inline="always")
+def _fill(a, v):
+    for i in range(a.size):
+        a[i] = v
+
+
+@numba.njit(cache=True, inline="always")
+def _copy(dst, src):
+    for i in range(src.size):
+        dst[i] = src[i]
+
+
+@numba.njit(cache=True, inline="always")
+def _copy2(dst, src):
+    for i in range(src.shape[0]):
+        for k in range(src.shape[1]):
+            dst[i, k] = src[i, k]
+
+
+@borrowing
+def _run(model_address, box_address, tables, reals, opts_i, opts_f, t_end, p, n_sig, ztimes,
+         zcount, sched_done, watch, ws, bx, sw, EV, PT, ST, SG, b, cp, si, sf):
+    """The run loop: event iterations and flow segments until the run ends or needs room.
+
+    Everything it touches is borrowed from :func:`run_kernel`, which owns the arrays: no
+    reference is counted while it runs, once per event and per step. Where a record or
+    the sampler's workspace is full it returns (:data:`_GROW`, :data:`_GROW_SAMPLES`)
+    before the event pass, segment or step that needs the room changes anything, with
+    its state in ``si`` and ``sf``; the kernel grows the array and calls it again, and
+    it resumes there (``si[_S_PHASE]``). :data:`_OVER`: the run ended with
+    ``si[_S_CODE]``.
+
+    The model's point and box functions come as addresses, as to :func:`run_kernel`.
+    """
+    model = model_at(model_address)
+    box = model_at(box_address)
     cgs = tables.cond_group
     inv_off, n_inv, n_sw = tables.invariant_offset, tables.n_invariants, tables.n_switches
     affine, out_ptr, out_list = tables.affine, tables.out_ptr, tables.out_list
@@ -229,160 +385,115 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
     sw_key, tr_zkey, n_cond = tables.switch_zeno_key, tables.tr_zeno_key, tables.n_conditions
     inv_box = tables.invariant_box
     period, phase = reals
-    method, samples, max_refine, max_events, max_iter, window, use_bounds = (
-        opts_i[0], opts_i[1], opts_i[2], opts_i[3], opts_i[4], opts_i[5], opts_i[6])
+    method, max_events, max_iter, window, use_bounds = (opts_i[0], opts_i[3], opts_i[4],
+                                                        opts_i[5], opts_i[6])
     rtol, atol, max_step, event_tol, event_atol, zeno_tol = (
         opts_f[0], opts_f[1], opts_f[2], opts_f[3], opts_f[4], opts_f[5])
+    x, sig, slm, W, eqv, sl_buffer = b.x, b.sig, b.slm, b.workspace, b.eq, b.sliding
+    gv, gd, table, floors_b, phi0_b, dphi0_b = (b.guard, b.guard_lie, b.table, b.floors,
+                                                b.phi0, b.dphi0)
+    hit_graz, coef, y_new, fcur = b.hit_grazing, b.coef, b.y_new, b.f
+    tmp, fired, fresh, grazing = b.tmp, b.fired, b.fresh, b.grazing
+    sw_hit, ex_hit, kinds, stats, info, last_x = (b.switch_hit, b.exit_hit, b.kinds, b.stats,
+                                                  b.info, b.last_x)
+    cp_i, cp_f, cp_x, cp_sig, cp_slm = cp.position, cp.times, cp.x, cp.sigma, cp.sliding
+    cp_zt, cp_zc, cp_sd, cp_rows, cp_graz = (cp.zeno_times, cp.zeno_counts, cp.schedules_done,
+                                             cp.rows, cp.grazing)
+    flag = W[flag_index(x.size, n_sig):]
+    dummy = W
     n = x.size
     n_tr = tr_target.size
-    nk, nc = N_K[method], N_COEF[method]
     order_err = 4 if method == 0 else 7
-    x = x.copy()
-    ns = max(n_sig, 1)
-    sig = np.ones(ns)
-    slm = np.zeros(ns, dtype=np.bool_)
-    W = workspace(n, n_sig)
-    flag = W[flag_index(n, n_sig):]
-    dummy = W
-    eqv = np.empty(ns)
-    n_cmax = max(np.max(n_cond), 1)
-    ws = LocateWorkspace(np.empty(n), np.empty(n), np.empty(2 * n_cmax), np.empty(n_cmax),
-                         np.empty(2 * ns), np.empty(ns), np.empty(ns))
-    bx = box_workspace(n, n_cmax, ns)
-    gv = np.empty(max(np.max(tr_monitored[n_tr:]) if n_tr else 1, 1))
-    gd = np.empty(gv.size)
-    # the monitor table of a flow segment and its per-monitor state: views of buffers
-    # sized for the mode with the most monitors (a segment starts at every event)
-    m_max = 1
-    for mm in range(n_inv.size):
-        c = n_inv[mm] + n_sw[mm]
-        for oi in range(out_ptr[mm], out_ptr[mm + 1]):
-            if tr_monitored[out_list[oi]] == 1:
-                c += 1
-        m_max = max(m_max, c)
-    sw = sample_workspace(m_max, 4 * (samples + 1))  # doubled when a step outgrows it
-    table = np.empty((5, m_max), dtype=np.int64)  # kind, ref, start, length, hit rows
-    mk, mref, mstart, mlen, hit_rows = table[0], table[1], table[2], table[3], table[4]
-    flags = np.zeros((2, m_max), dtype=np.bool_)  # armed, has a floor
-    floors_b = np.zeros(m_max)
-    phi0_b = np.empty((m_max, 1))
-    dphi0_b = np.empty((m_max, 1))
-    hit_graz = np.zeros(0, dtype=np.bool_)
-    rows = np.empty(0, dtype=np.int64)
-    times = np.empty(0)
-    graz = np.zeros(0, dtype=np.bool_)
-    hit_n = 0
-    w_sw = ns
-    EV = np.empty((64, 7 + 2 * n))
-    PT = np.empty((256, 1 + n))
-    ST = np.empty((256, 2 + n + nc * n))
-    SG = np.empty((64, 6), dtype=np.int64)
-    nev, npt, nst, nsg = 0, 0, 0, 0
-    # steps, refinements, events_located, segments, steps proven quiet (not sampled)
-    stats = np.zeros(5, dtype=np.int64)
-    info = np.zeros(4)
-    j = 0
-    h_last = -1.0
-    K = np.empty((nk, n))
-    coef = np.empty((nc, n))
-    y_new = np.empty(n)
-    f_new = np.empty(n)
-    fcur = np.empty(n)
-    tmp = np.empty(n)
-    scale = np.empty(n)
-    fired = np.zeros(max(n_tr, 1), dtype=np.bool_)
-    fresh = np.zeros(max(n_tr, 1), dtype=np.bool_)
-    grazing = np.zeros(max(n_tr, 1), dtype=np.bool_)
-    sw_hit = np.zeros(ns, dtype=np.bool_)
-    ex_hit = np.zeros(ns, dtype=np.bool_)
-    kinds = np.zeros(ns, dtype=np.int64)
-    # checkpoint: kind, mode, j, events, segments, triggers; t, h_last; state; signs; ...
-    cp_i = np.zeros(6, dtype=np.int64)
-    cp_f = np.zeros(2)
-    cp_x = x.copy()
-    cp_sig = sig.copy()
-    cp_slm = slm.copy()
-    cp_zt = ztimes.copy()
-    cp_zc = zcount.copy()
-    cp_sd = sched_done.copy()
-    cp_rows = np.zeros(0, dtype=np.int64)
-    cp_graz = np.zeros(0, dtype=np.bool_)
-    code = COMPLETED
-    last_t, last_x, last_m = t, x.copy(), m
-    fc = _fc(tables, m, slm, W)
-    if enter_mode(model, fc, affine[m], t, x, p, sig, slm, event_atol) != OK:
-        code = HANDOFF
-        cp_i[0] = R_START
-        return KernelResult(code, EV[:0].copy(), PT[:0].copy(), ST[:0].copy(), SG[:0].copy(),
-                            stats, info, last_t, last_x, last_m, j, h_last,
-                            KernelCheckpoint(cp_i, cp_f, cp_x, cp_sig, cp_slm, cp_zt, cp_zc,
-                                             cp_sd, cp_rows, cp_graz))
-    fc = _fc(tables, m, slm, W)
-    action = _ITERATE
+    w_sw = max(n_sig, 1)
+    action, m, j, nev, npt = si[_S_ACTION], si[_S_MODE], si[_S_JUMPS], si[_S_NEV], si[_S_NPT]
+    nst, nsg, hit_n, code, next_look = (si[_S_NST], si[_S_NSG], si[_S_HITS], si[_S_CODE],
+                                        si[_S_LOOK])
+    resume, first_pass, previous, M = si[_S_PHASE], si[_S_PASS], si[_S_PREVIOUS], si[_S_M]
+    bounded, last_m = si[_S_BOUNDED] != 0, si[_S_LAST_MODE]
+    t, h_last, h_abs, t_stop, last_t = (sf[_F_T], sf[_F_H_LAST], sf[_F_H_ABS], sf[_F_T_STOP],
+                                        sf[_F_LAST_T])
+    status = _OVER
+    need = 0
+    mk, mref, mstart, mlen = table[0, :M], table[1, :M], table[2, :M], table[3, :M]
+    hit_rows = table[4, :M]
+    armed, has_floor, floors = b.flags[0, :M], b.flags[1, :M], floors_b[:M]
+    fc = _fc(tables, m, slm, W, sl_buffer)
+    md = Monitors(fc, cgs[m], mk, mref, mstart, mlen, n_cond[m])
     while True:
-        if action != _FLOW:
-            # ------------------------------------------------------------ checkpoint
-            cp_i[0] = R_HANDLE if action == _HANDLE else R_ITERATE
-            cp_i[1], cp_i[2], cp_i[3], cp_i[4] = m, j, nev, nsg
-            cp_f[0], cp_f[1] = t, h_last
-            cp_x[:] = x
-            cp_sig[:] = sig
-            cp_slm[:] = slm
-            cp_zt[:] = ztimes
-            cp_zc[:] = zcount
-            cp_sd[:] = sched_done
-            fresh[:] = False
-            grazing[:] = False
+        if action != _FLOW and resume != _AT_STEPS:
             stop = False
-            if action == _HANDLE:
-                cp_i[5] = hit_n
-                cp_rows = hit_rows[:hit_n].copy()
-                cp_graz = hit_graz[:hit_n].copy()
-                # ------------------------------------------------------------ handle
-                sw_hit[:] = False
-                ex_hit[:] = False
-                any_switch = False
-                for i in range(hit_n):
-                    r = hit_rows[i]
-                    if mk[r] == GUARD:
-                        fresh[mref[r]] = True
-                        if hit_graz[i]:
-                            grazing[mref[r]] = True
-                    elif mk[r] == SWITCH:
-                        sw_hit[mref[r]] = True
-                        any_switch = True
-                    elif mk[r] == EXIT:
-                        ex_hit[mref[r]] = True
-                        any_switch = True
-                if any_switch:
-                    if update_switches(model, fc, affine[m], t, x, p, sig, slm, sw_hit, ex_hit,
-                                       kinds) != OK:
-                        code = HANDOFF
-                        break
-                    fc = _fc(tables, m, slm, W)
-                    for k in range(n_sw[m]):
-                        if kinds[k] == 0:
-                            continue
-                        EV = _log(EV, nev, t, j, k, m, m, kinds[k], False, x, x)
-                        nev += 1
-                        if nev >= max_events:
-                            code = MAX_EVENTS
-                            stop = True
+            if resume == _AT_ACTION:
+                if action == _HANDLE and nev + n_sw[m] >= EV.shape[0]:
+                    status, need = _GROW, nev + n_sw[m]
+                    break
+                # -------------------------------------------------------- checkpoint
+                cp_i[0] = R_HANDLE if action == _HANDLE else R_ITERATE
+                cp_i[1], cp_i[2], cp_i[3], cp_i[4] = m, j, nev, nsg
+                cp_f[0], cp_f[1] = t, h_last
+                _copy(cp_x, x)
+                _copy(cp_sig, sig)
+                _copy(cp_slm, slm)
+                _copy2(cp_zt, ztimes)
+                _copy(cp_zc, zcount)
+                _copy(cp_sd, sched_done)
+                _fill(fresh, False)
+                _fill(grazing, False)
+                if action == _HANDLE:
+                    cp_i[5] = hit_n
+                    for i in range(hit_n):
+                        cp_rows[i] = hit_rows[i]
+                        cp_graz[i] = hit_graz[i]
+                    # ---------------------------------------------------- handle
+                    _fill(sw_hit, False)
+                    _fill(ex_hit, False)
+                    any_switch = False
+                    for i in range(hit_n):
+                        r = hit_rows[i]
+                        if mk[r] == GUARD:
+                            fresh[mref[r]] = True
+                            if hit_graz[i]:
+                                grazing[mref[r]] = True
+                        elif mk[r] == SWITCH:
+                            sw_hit[mref[r]] = True
+                            any_switch = True
+                        elif mk[r] == EXIT:
+                            ex_hit[mref[r]] = True
+                            any_switch = True
+                    if any_switch:
+                        if update_switches(model, fc, affine[m], t, x, p, sig, slm, sw_hit,
+                                           ex_hit, kinds) != OK:
+                            code = HANDOFF
                             break
-                        if _zeno_stop(ztimes, zcount, sw_key[m * w_sw + k], t, window,
-                                      zeno_tol, ZENO_RESOLUTION * event_tol, info):
-                            last_t, last_m = t, m
-                            last_x[:] = x
-                            code = ZENO
-                            stop = True
+                        fc = _fc(tables, m, slm, W, sl_buffer)
+                        for k in range(n_sw[m]):
+                            if kinds[k] == 0:
+                                continue
+                            _log(EV, nev, t, j, k, m, m, kinds[k], False, x, x)
+                            nev += 1
+                            if nev >= max_events:
+                                code = MAX_EVENTS
+                                stop = True
+                                break
+                            if _zeno_stop(ztimes, zcount, sw_key[m * w_sw + k], t, window,
+                                          zeno_tol, ZENO_RESOLUTION * event_tol, info):
+                                last_t, last_m = t, m
+                                _copy(last_x, x)
+                                code = ZENO
+                                stop = True
+                                break
+                        if stop:
                             break
-                    if stop:
-                        break
-            # ---------------------------------------------------------------- event iteration
-            fired[:] = False
-            previous = -1
+                # ------------------------------------------------------------ event iteration
+                _fill(fired, False)
+                previous = -1
+                first_pass = 0
             settled = False
-            for _ in range(max_iter):
+            for it in range(first_pass, max_iter):
+                if nev >= EV.shape[0]:  # room for this pass's jump
+                    status, need, first_pass = _GROW, nev, it
+                    resume = _AT_PASS
+                    stop = True
+                    break
                 chosen = -1
                 flowing = False  # the (equivalent) flow at (t, x) is in fcur: once per pass
                 for oi in range(out_ptr[m], out_ptr[m + 1]):
@@ -446,7 +557,7 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
                 if chosen < 0:
                     settled = True
                     break
-                tmp[:] = x
+                _copy(tmp, x)
                 model(OP_RESET, tr_reset[chosen], t, ptr(tmp), ptr(p), ptr(sig), ptr(dummy),
                       ptr(y_new))
                 for i in range(n):
@@ -457,9 +568,9 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
                     break
                 j += 1
                 target = tr_target[chosen]
-                EV = _log(EV, nev, t, j, chosen, m, target, 0, grazing[chosen], tmp, y_new)
+                _log(EV, nev, t, j, chosen, m, target, 0, grazing[chosen], tmp, y_new)
                 nev += 1
-                x[:] = y_new
+                _copy(x, y_new)
                 if nev >= max_events:
                     code = MAX_EVENTS
                     stop = True
@@ -473,21 +584,22 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
                     if _zeno_stop(ztimes, zcount, tr_zkey[chosen], t, window, zeno_tol,
                                   ZENO_RESOLUTION * event_tol, info):
                         last_t, last_m = t, target
-                        last_x[:] = x
+                        _copy(last_x, x)
                         code = ZENO
                         stop = True
                         break
                 m = target
-                slm[:] = False
-                fc = _fc(tables, m, slm, W)
+                _fill(slm, False)
+                fc = _fc(tables, m, slm, W, sl_buffer)
                 if enter_mode(model, fc, affine[m], t, x, p, sig, slm, event_atol) != OK:
                     code = HANDOFF
                     stop = True
                     break
-                fc = _fc(tables, m, slm, W)
-                fresh[:] = False
+                fc = _fc(tables, m, slm, W, sl_buffer)
+                _fill(fresh, False)
             if stop:
                 break
+            resume = _AT_ACTION
             if not settled:
                 code = HANDOFF  # a zero-dwell cycle: the reference reports it
                 break
@@ -498,8 +610,11 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
                     if abs(phase[tr] + kk * period[tr] - t) <= DUE_WIDTH * xtol_at(event_tol, t):
                         sched_done[tr] = kk
             last_t, last_m = t, m
-            last_x[:] = x
-            if action == _HANDLE and not np.any(fired):
+            _copy(last_x, x)
+            any_fired = False
+            for tr in range(fired.size):
+                any_fired = any_fired or fired[tr]
+            if action == _HANDLE and not any_fired:
                 # an invariant reached without a jump: it must be touched and kept
                 for r in range(hit_n):
                     if mk[hit_rows[r]] == INVARIANT:
@@ -519,172 +634,105 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
                     break
             action = _FLOW
         # ---------------------------------------------------------------- main loop
-        if not t < t_end:
-            break
-        t_stop = t_end
-        for oi in range(out_ptr[m], out_ptr[m + 1]):
-            tr = out_list[oi]
-            if tr_sched[tr] == 1 and tr_sched_on[tr] == 1:
-                kk = _sched_index(t, phase[tr], period[tr], sched_done[tr])
-                t_stop = min(t_stop, phase[tr] + kk * period[tr])
-        if t_stop - t > xtol_at(event_tol, t):
-            # ------------------------------------------------------------ flow segment
-            cp_i[0], cp_i[1], cp_i[2], cp_i[3], cp_i[4] = R_FLOW, m, j, nev, nsg
-            cp_f[0], cp_f[1] = t, h_last
-            cp_x[:] = x
-            cp_sig[:] = sig
-            cp_slm[:] = slm
-            cg = cgs[m]
-            M = 0
-            for oi in range(out_ptr[m], out_ptr[m + 1]):
-                if tr_monitored[out_list[oi]] == 1:
-                    M += 1
-            M += n_inv[m] + n_sw[m]
-            mk, mref, mstart, mlen = table[0, :M], table[1, :M], table[2, :M], table[3, :M]
-            r = 0
-            row0 = 0
+        if resume != _AT_STEPS:
+            if not t < t_end:
+                break
+            t_stop = t_end
             for oi in range(out_ptr[m], out_ptr[m + 1]):
                 tr = out_list[oi]
-                if tr_monitored[tr] == 1:
-                    mk[r], mref[r], mstart[r], mlen[r] = GUARD, tr, row0, tr_monitored[n_tr + tr]
-                    row0 += tr_monitored[n_tr + tr]
+                if tr_sched[tr] == 1 and tr_sched_on[tr] == 1:
+                    kk = _sched_index(t, phase[tr], period[tr], sched_done[tr])
+                    t_stop = min(t_stop, phase[tr] + kk * period[tr])
+        if resume == _AT_STEPS or t_stop - t > xtol_at(event_tol, t):
+            if resume != _AT_STEPS:
+                # -------------------------------------------------------- flow segment
+                if nsg >= SG.shape[0] or npt >= PT.shape[0]:
+                    status = _GROW
+                    break
+                cp_i[0], cp_i[1], cp_i[2], cp_i[3], cp_i[4] = R_FLOW, m, j, nev, nsg
+                cp_f[0], cp_f[1] = t, h_last
+                _copy(cp_x, x)
+                _copy(cp_sig, sig)
+                _copy(cp_slm, slm)
+                cg = cgs[m]
+                M = 0
+                for oi in range(out_ptr[m], out_ptr[m + 1]):
+                    if tr_monitored[out_list[oi]] == 1:
+                        M += 1
+                M += n_inv[m] + n_sw[m]
+                mk, mref, mstart, mlen = table[0, :M], table[1, :M], table[2, :M], table[3, :M]
+                r = 0
+                row0 = 0
+                for oi in range(out_ptr[m], out_ptr[m + 1]):
+                    tr = out_list[oi]
+                    if tr_monitored[tr] == 1:
+                        mk[r], mref[r], mstart[r], mlen[r] = (GUARD, tr, row0,
+                                                              tr_monitored[n_tr + tr])
+                        row0 += tr_monitored[n_tr + tr]
+                        r += 1
+                for k in range(n_inv[m]):
+                    mk[r], mref[r], mstart[r], mlen[r] = INVARIANT, k, inv_off[m] + k, 1
                     r += 1
-            for k in range(n_inv[m]):
-                mk[r], mref[r], mstart[r], mlen[r] = INVARIANT, k, inv_off[m] + k, 1
-                r += 1
-            for k in range(n_sw[m]):
-                mk[r], mref[r], mstart[r], mlen[r] = (EXIT if slm[k] else SWITCH), k, 0, 1
-                r += 1
-            md = Monitors(fc, cg, mk, mref, mstart, mlen, n_cond[m])
-            bounded = use_bounds != 0 and M > 0
-            SG = _grow(SG, nsg)
-            SG[nsg, 0], SG[nsg, 1], SG[nsg, 2], SG[nsg, 4] = m, j, npt, nst
-            PT = _grow(PT, npt)
-            PT[npt, 0] = t
-            PT[npt, 1:] = x
-            npt += 1
-            armed, has_floor, floors = flags[0, :M], flags[1, :M], floors_b[:M]
-            for r in range(M):
-                armed[r] = False
-                has_floor[r] = False
-                floors[r] = 0.0
-            if M > 0:
-                phi0, dphi0 = phi0_b[:M], dphi0_b[:M]
-                flow_eq(model, fc, t, x, p, sig, ws.dx, ws.eq)
-                monitors_at(model, md, p, sig, ws, t, x, ws.dx, phi0, dphi0, 0)
+                for k in range(n_sw[m]):
+                    mk[r], mref[r], mstart[r], mlen[r] = (EXIT if slm[k] else SWITCH), k, 0, 1
+                    r += 1
+                md = Monitors(fc, cg, mk, mref, mstart, mlen, n_cond[m])
+                bounded = use_bounds != 0 and M > 0
+                SG[nsg, 0], SG[nsg, 1], SG[nsg, 2], SG[nsg, 4] = m, j, npt, nst
+                PT[npt, 0] = t
+                for i in range(n):
+                    PT[npt, 1 + i] = x[i]
+                npt += 1
+                armed, has_floor, floors = b.flags[0, :M], b.flags[1, :M], floors_b[:M]
                 for r in range(M):
-                    armed[r] = phi0[r, 0] > event_atol
-                    band = ENTRY_BAND * xtol_at(event_tol, t) * abs(dphi0[r, 0]) + event_atol
-                    if not (armed[r] or (mk[r] == GUARD and dphi0[r, 0] <= 0)):
-                        has_floor[r] = True
-                        floors[r] = min(phi0[r, 0], 0.0) - band
-                    if mk[r] == INVARIANT and phi0[r, 0] < -band:
+                    armed[r] = False
+                    has_floor[r] = False
+                    floors[r] = 0.0
+                if M > 0:
+                    phi0, dphi0 = phi0_b[:M], dphi0_b[:M]
+                    flow_eq(model, fc, t, x, p, sig, ws.dx, ws.eq)
+                    monitors_at(model, md, p, sig, ws, t, x, ws.dx, phi0, dphi0, 0)
+                    for r in range(M):
+                        armed[r] = phi0[r, 0] > event_atol
+                        band = ENTRY_BAND * xtol_at(event_tol, t) * abs(dphi0[r, 0]) + event_atol
+                        if not (armed[r] or (mk[r] == GUARD and dphi0[r, 0] <= 0)):
+                            has_floor[r] = True
+                            floors[r] = min(phi0[r, 0], 0.0) - band
+                        if mk[r] == INVARIANT and phi0[r, 0] < -band:
+                            code = HANDOFF
+                    if flag[0] != 0:
                         code = HANDOFF
-                if flag[0] != 0:
-                    code = HANDOFF
+                    if code == HANDOFF:
+                        break
+                if M > 0 and fc.sliding.size == 0:
+                    for i in range(n):  # without sliding, flow_eq gave the flow itself
+                        fcur[i] = ws.dx[i]
+                else:
+                    rhs(model, fc, t, x, p, sig, fcur)
+                for i in range(n):
+                    if not (np.isfinite(fcur[i]) and np.isfinite(x[i])):
+                        code = HANDOFF  # the reference engine names the non-finite flow
                 if code == HANDOFF:
                     break
-            if M > 0 and fc.sliding.size == 0:
-                for i in range(n):  # without sliding, flow_eq gave the flow itself
-                    fcur[i] = ws.dx[i]
-            else:
-                rhs(model, fc, t, x, p, sig, fcur)
-            for i in range(n):
-                if not (np.isfinite(fcur[i]) and np.isfinite(x[i])):
-                    code = HANDOFF  # the reference engine names the non-finite flow
-            if code == HANDOFF:
-                break
-            if h_last > 0:
-                h_abs = min(h_last, t_stop - t)
-            else:
-                h_abs = initial_step(model, fc, t, x, fcur, t_stop, max_step, order_err, rtol,
-                                     atol, p, sig)
-            hit_n = 0
-            hit_rows = table[4, :M]
-            coef[:] = 0.0  # the columns of states outside the active set stay zero
-            act = fc.active
-            while True:
-                ok, t_new, h_abs, h = rk_step(model, method, fc, t, x, fcur, t_stop, h_abs,
-                                              max_step, rtol, atol, p, sig, K, y_new, f_new,
-                                              tmp, scale)
-                stats[0] += 1
-                if not ok or flag[0] != 0:
-                    code = HANDOFF
-                    break
-                t_old = t
-                h_last = t_new - t_old
-                dense_coefficients(model, method, fc, t_old, h, x, y_new, f_new, p, sig, K,
-                                   tmp, coef)
-                step = DenseStep(method, coef, t_old, h, x, act)
-                if bounded and quiet_step(box, md, p, sig, step, t_old, t_new, event_atol,
-                                          armed, bx, tr_guard, inv_box[m]):
-                    nfire = 0
-                    stats[4] += 1
+                if h_last > 0:
+                    h_abs = min(h_last, t_stop - t)
                 else:
-                    while True:
-                        nfire = scan(model, md, p, sig, ws, sw, step, armed, has_floor,
-                                     floors, t_old, t_new, samples, max_refine, event_tol,
-                                     event_atol, stats)
-                        if nfire != OUTGROWN:
-                            break
-                        sw = sample_workspace(m_max, 2 * sw.times.size)
-                    armed[:] = sw.armed[:M]
-                    rows, times, graz = sw.rows, sw.at, sw.grazing
-                if flag[0] != 0:
-                    code = HANDOFF
-                    break
-                for r in range(M):
-                    if armed[r]:
-                        has_floor[r] = False
-                if nst >= ST.shape[0]:  # (a call per step would count references)
-                    ST = _grow(ST, nst)
-                ST[nst, 0] = t_old
-                ST[nst, 1] = h
-                ST[nst, 2:2 + n] = x
-                for c in range(nc):
-                    ST[nst, 2 + n + c * n:2 + n + (c + 1) * n] = coef[c]
-                nst += 1
-                if npt >= PT.shape[0]:
-                    PT = _grow(PT, npt)
-                if nfire > 0:
-                    t_event = times[0]
-                    for i in range(1, nfire):
-                        t_event = min(t_event, times[i])
-                    dense_eval(method, coef, t_old, h, x, act, t_event, tmp)
-                    t = t_event
-                    x[:] = tmp
-                    PT[npt, 0] = t
-                    PT[npt, 1:] = x
-                    npt += 1
-                    hit_n = nfire
-                    hit_rows[:nfire] = rows[:nfire]
-                    hit_graz = graz
-                    break
-                PT[npt, 0] = t_new
-                PT[npt, 1:] = y_new
-                npt += 1
-                t = t_new
-                x[:] = y_new
-                fcur[:] = f_new
-                if stats[0] >= max_steps:
-                    code = STEP_LIMIT
-                elif stats[0] % _WATCH_EVERY == 0:
-                    now_ns = 0
-                    if timed:
-                        clock(clock_id, ptr(now))
-                        now_ns = now[0] * 1_000_000_000 + now[1]
-                    hit = 0
-                    if watch[1] != 0 and (not timed or now_ns >= next_look):
-                        next_look = now_ns + _LOOK_EVERY_NS
-                        held = gil_ensure()  # CPython's flag is read under the GIL
-                        hit = interrupted()
-                        gil_release(held)
-                    if hit != 0:
-                        code = INTERRUPTED
-                    elif deadline > 0 and now_ns >= deadline:
-                        code = TIME_LIMIT
-                if t_new >= t_stop or code != COMPLETED:
-                    break
+                    h_abs = initial_step(model, fc, t, x, fcur, t_stop, max_step, order_err,
+                                         rtol, atol, p, sig)
+                hit_n = 0
+                hit_rows = table[4, :M]
+                for c in range(coef.shape[0]):  # the columns outside the active set stay zero
+                    for i in range(n):
+                        coef[c, i] = 0.0
+            steps, code, t, h_abs, h_last, nst, npt, hit_n, next_look = _steps(
+                model, box, md, p, ws, sw, bx, b, tr_guard, inv_box[m], flag, armed,
+                has_floor, floors, bounded, opts_i, opts_f, t, t_stop, h_abs, h_last, ST, nst,
+                PT, npt, hit_rows, watch, next_look)
+            if steps != _DONE:
+                status = _GROW if steps == _ROOM else _GROW_SAMPLES
+                resume = _AT_STEPS
+                break
+            resume = _AT_ACTION
             SG[nsg, 3] = npt - SG[nsg, 2]
             SG[nsg, 5] = nst - SG[nsg, 4]
             nsg += 1
@@ -692,7 +740,7 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
                 break
             stats[3] += 1
             last_t, last_m = t, m
-            last_x[:] = x
+            _copy(last_x, x)
             if code != COMPLETED:
                 break
             if hit_n > 0:
@@ -711,12 +759,125 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
             action = _ITERATE  # the event iteration without fresh guards
             hit_n = 0
             continue
-    if code == HANDOFF and cp_i[0] == R_FLOW:
+        break
+    si[_S_ACTION], si[_S_MODE], si[_S_JUMPS], si[_S_NEV], si[_S_NPT] = action, m, j, nev, npt
+    si[_S_NST], si[_S_NSG], si[_S_HITS], si[_S_CODE], si[_S_LOOK] = (nst, nsg, hit_n, code,
+                                                                     next_look)
+    si[_S_PHASE], si[_S_PASS], si[_S_PREVIOUS], si[_S_M] = resume, first_pass, previous, M
+    si[_S_BOUNDED], si[_S_LAST_MODE], si[_S_NEED] = 1 if bounded else 0, last_m, need
+    sf[_F_T], sf[_F_H_LAST], sf[_F_H_ABS], sf[_F_T_STOP], sf[_F_LAST_T] = (t, h_last, h_abs,
+                                                                          t_stop, last_t)
+    return status
+
+
+@numba.njit(cache=True, nogil=True)
+def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, m, t_end, p,
+               n_sig, ztimes, zcount, sched_done, watch):
+    """Run from ``(t, x, m)`` to ``t_end``; see the module docstring for the records.
+
+    The kernel releases the GIL: runs in several threads go on in parallel.
+
+    ``watch``: the step budget, the addresses of ``PyOS_InterruptOccurred`` (0:
+    Ctrl-C is not looked for, as in a thread other than the main one, which never
+    receives it) and ``clock_gettime``, the clock's id, the wall-clock deadline in
+    its nanoseconds (0: none), and the addresses of ``PyGILState_Ensure`` and
+    ``PyGILState_Release``, between which it looks for Ctrl-C. Every
+    :data:`_WATCH_EVERY` steps the kernel looks at the clock, and for Ctrl-C when
+    :data:`_LOOK_EVERY_NS` have passed since it last did (every time, without a
+    clock), and stops with :data:`INTERRUPTED` or :data:`TIME_LIMIT`; after
+    ``watch[0]`` steps it stops with :data:`STEP_LIMIT`.
+
+    ``model_address`` and ``box_address`` are the addresses of the generated
+    model's point and box functions (:mod:`.codegen`; ``cfunc.address``).
+
+    ``tables``: the model's :class:`~.layout.ModelTables`. ``reals``: per
+    transition period, phase. Returns the records, the final run state and the
+    checkpoint (meaningful for :data:`HANDOFF`), as a :class:`~.layout.KernelResult`.
+    """
+    model = model_at(model_address)  # for entering the first mode; _run takes its own
+    n_inv, n_sw, out_ptr, out_list = (tables.n_invariants, tables.n_switches, tables.out_ptr,
+                                      tables.out_list)
+    tr_target, tr_monitored, n_cond = tables.tr_target, tables.tr_monitored, tables.n_conditions
+    method, samples = opts_i[0], opts_i[1]
+    event_atol = opts_f[4]
+    n = x.size
+    n_tr = tr_target.size
+    nk, nc = N_K[method], N_COEF[method]
+    x = x.copy()
+    ns = max(n_sig, 1)
+    sig = np.ones(ns)
+    slm = np.zeros(ns, dtype=np.bool_)
+    W = workspace(n, n_sig)
+    sl_buffer = np.empty(ns, dtype=np.int64)  # the sliding indices of the flow context
+    n_cmax = max(np.max(n_cond), 1)
+    ws = LocateWorkspace(np.empty(n), np.empty(n), np.empty(2 * n_cmax), np.empty(n_cmax),
+                         np.empty(2 * ns), np.empty(ns), np.empty(ns))
+    bx = box_workspace(n, n_cmax, ns)
+    gv = np.empty(max(np.max(tr_monitored[n_tr:]) if n_tr else 1, 1))
+    # the monitor table of a flow segment and its per-monitor state: views of buffers
+    # sized for the mode with the most monitors (a segment starts at every event)
+    m_max = 1
+    for mm in range(n_inv.size):
+        c = n_inv[mm] + n_sw[mm]
+        for oi in range(out_ptr[mm], out_ptr[mm + 1]):
+            if tr_monitored[out_list[oi]] == 1:
+                c += 1
+        m_max = max(m_max, c)
+    sw = sample_workspace(m_max, 4 * (samples + 1))  # doubled when a step outgrows it
+    b = RunBuffers(x, sig, slm, W, np.empty(ns), sl_buffer, gv, np.empty(gv.size),
+                   np.empty((5, m_max), dtype=np.int64),  # kind, ref, start, length, hit rows
+                   np.zeros((2, m_max), dtype=np.bool_),  # armed, has a floor
+                   np.zeros(m_max), np.empty((m_max, 1)), np.empty((m_max, 1)),
+                   np.zeros(m_max, dtype=np.bool_), np.empty((nk, n)), np.empty((nc, n)),
+                   np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+                   np.zeros(max(n_tr, 1), dtype=np.bool_), np.zeros(max(n_tr, 1), dtype=np.bool_),
+                   np.zeros(max(n_tr, 1), dtype=np.bool_), np.zeros(ns, dtype=np.bool_),
+                   np.zeros(ns, dtype=np.bool_), np.zeros(ns, dtype=np.int64),
+                   # steps, refinements, events_located, segments, steps proven quiet
+                   np.zeros(5, dtype=np.int64), np.zeros(4), x.copy(),
+                   np.zeros(2, dtype=np.int64))
+    EV = np.empty((64, 7 + 2 * n))
+    PT = np.empty((256, 1 + n))
+    ST = np.empty((256, 2 + n + nc * n))
+    SG = np.empty((64, 6), dtype=np.int64)
+    # checkpoint: kind, mode, j, events, segments, triggers; t, h_last; state; signs; ...
+    # (its rows and grazing flags: buffers of which the first triggers count)
+    cp = KernelCheckpoint(np.zeros(6, dtype=np.int64), np.zeros(2), x.copy(), sig.copy(),
+                          slm.copy(), ztimes.copy(), zcount.copy(), sched_done.copy(),
+                          np.zeros(m_max, dtype=np.int64), np.zeros(m_max, dtype=np.bool_))
+    si = np.zeros(_N_SI, dtype=np.int64)
+    sf = np.zeros(_N_SF)
+    si[_S_ACTION], si[_S_MODE], si[_S_LAST_MODE], si[_S_CODE] = _ITERATE, m, m, COMPLETED
+    sf[_F_T], sf[_F_H_LAST], sf[_F_LAST_T] = t, -1.0, t
+    fc = _fc(tables, m, slm, W, sl_buffer)
+    if enter_mode(model, fc, tables.affine[m], t, x, p, sig, slm, event_atol) != OK:
+        cp.position[0] = R_START
+        si[_S_CODE] = HANDOFF
+    else:
+        while True:
+            status = _run(model_address, box_address, tables, reals, opts_i, opts_f, t_end, p,
+                          n_sig, ztimes, zcount, sched_done, watch, ws, bx, sw, EV, PT, ST, SG,
+                          b, cp, si, sf)
+            if status == _OVER:
+                break
+            if status == _GROW_SAMPLES:
+                sw = sample_workspace(m_max, 2 * sw.times.size)
+                continue
+            while si[_S_NEED] >= EV.shape[0]:
+                EV = _grow(EV, si[_S_NEED])
+            PT = _grow(PT, si[_S_NPT])
+            ST = _grow(ST, si[_S_NST])
+            SG = _grow(SG, si[_S_NSG])
+    code = si[_S_CODE]
+    if code == HANDOFF and cp.position[0] == R_FLOW:
         # a flow segment changes neither the Zeno history nor the schedules
-        cp_zt[:] = ztimes
-        cp_zc[:] = zcount
-        cp_sd[:] = sched_done
+        cp.zeno_times[:] = ztimes
+        cp.zeno_counts[:] = zcount
+        cp.schedules_done[:] = sched_done
+    nev, npt, nst, nsg, hits = si[_S_NEV], si[_S_NPT], si[_S_NST], si[_S_NSG], cp.position[5]
     return KernelResult(code, EV[:nev].copy(), PT[:npt].copy(), ST[:nst].copy(),
-                        SG[:nsg].copy(), stats, info, last_t, last_x, last_m, j, h_last,
-                        KernelCheckpoint(cp_i, cp_f, cp_x, cp_sig, cp_slm, cp_zt, cp_zc, cp_sd,
-                                         cp_rows, cp_graz))
+                        SG[:nsg].copy(), b.stats, b.info, sf[_F_LAST_T], b.last_x,
+                        si[_S_LAST_MODE], si[_S_JUMPS], sf[_F_H_LAST],
+                        KernelCheckpoint(cp.position, cp.times, cp.x, cp.sigma, cp.sliding,
+                                         cp.zeno_times, cp.zeno_counts, cp.schedules_done,
+                                         cp.rows[:hits].copy(), cp.grazing[:hits].copy()))

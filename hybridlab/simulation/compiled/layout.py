@@ -30,6 +30,7 @@ from typing import NamedTuple
 import numpy as np
 
 __all__ = ["BoxWorkspace", "DenseStep", "FlowContext", "KernelCheckpoint", "KernelResult",
+           "RunBuffers",
            "LocateWorkspace", "ModelTables", "Monitors", "Probe", "SampleWorkspace"]
 
 
@@ -131,6 +132,56 @@ class KernelResult(NamedTuple):
     last_step: float
     checkpoint: KernelCheckpoint
 
+
+
+class RunBuffers(NamedTuple):
+    """The run loop's buffers, allocated once per run by the kernel and borrowed by its loop.
+
+    The state, the signs and the sliding set; the sliding workspace, the equivalent signs
+    and the sliding indices; a guard's rows and their slopes; the monitor table (kind,
+    reference, first row, rows, hit rows), its flags (armed, has a floor), floors and
+    first values and slopes; the hit monitors' grazing flags; the integrator's stages,
+    dense-output coefficients, new state and flow, current flow and scratch; the event
+    iteration's flags per transition (fired, fresh, grazing) and per switch (hit, exit
+    hit, kind of event); the statistics, the stop details, the last state and the clock.
+
+    Examples
+    --------
+    >>> RunBuffers._fields[:3]
+    ('x', 'sig', 'slm')
+    """
+
+    x: np.ndarray
+    sig: np.ndarray
+    slm: np.ndarray
+    workspace: np.ndarray
+    eq: np.ndarray
+    sliding: np.ndarray
+    guard: np.ndarray
+    guard_lie: np.ndarray
+    table: np.ndarray
+    flags: np.ndarray
+    floors: np.ndarray
+    phi0: np.ndarray
+    dphi0: np.ndarray
+    hit_grazing: np.ndarray
+    stages: np.ndarray
+    coef: np.ndarray
+    y_new: np.ndarray
+    f_new: np.ndarray
+    f: np.ndarray
+    tmp: np.ndarray
+    scale: np.ndarray
+    fired: np.ndarray
+    fresh: np.ndarray
+    grazing: np.ndarray
+    switch_hit: np.ndarray
+    exit_hit: np.ndarray
+    kinds: np.ndarray
+    stats: np.ndarray
+    info: np.ndarray
+    last_x: np.ndarray
+    now: np.ndarray
 
 # ----- the kernel's own records (built inside the kernel, passed between its stages) ----------
 class FlowContext(NamedTuple):

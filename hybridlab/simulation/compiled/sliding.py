@@ -43,7 +43,7 @@ from hybridlab.simulation.compiled.opcodes import (
     OP_SWITCH_GRAD,
     OP_SWITCH_LIE,
 )
-from hybridlab.simulation.compiled.signatures import borrowing, ptr, ptr_at
+from hybridlab.simulation.compiled.signatures import borrowing, counted, ptr, ptr_at
 from hybridlab.simulation.rules import EQUAL_SLOPES, EQUIVALENT_SIGN_SLACK
 
 __all__ = ["workspace", "flag_index", "equivalent", "equivalent_signs", "flow_sliding",
@@ -346,7 +346,7 @@ def resolve(model, fc, affine, t, x, p, sig, at_surface, forced, forced_value, s
     return OK
 
 
-@numba.njit(cache=True)
+@counted
 def enter_mode(model, fc, affine, t, x, p, sig, slm, event_atol):
     """Fresh signs for a mode's switches at ``(t, x)`` (``fc`` without sliding)."""
     m = fc.n_switches
@@ -369,7 +369,7 @@ def _sign(v):
     return 0.0 if v == 0 else (1.0 if v > 0 else (-1.0 if v < 0 else v))
 
 
-@numba.njit(cache=True)
+@counted
 def update_switches(model, fc, affine, t, x, p, sig, slm, switches, exits, kinds):
     """``_Run.update_switches`` without the logging: ``kinds[k]`` 1 crossing, 2 slide start,
     3 slide end for every switch hit; ``fc`` carries the sliding set before the event."""
