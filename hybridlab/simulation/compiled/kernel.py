@@ -69,7 +69,6 @@ from hybridlab.simulation.compiled.opcodes import (
 from hybridlab.simulation.compiled.signatures import (
     borrowing,
     clock_at,
-    counted,
     gil_ensure_at,
     gil_release_at,
     interrupt_at,
@@ -82,6 +81,7 @@ from hybridlab.simulation.compiled.sliding import (
     flag_index,
     flow_eq,
     rhs,
+    switch_scratch,
     update_switches,
     workspace,
 )
@@ -124,9 +124,15 @@ def _grow(a, n):
 _sched_index = numba.njit(cache=True)(schedule_index)
 
 
-@counted
+@borrowing
 def _zeno_record(ztimes, zcount, key, t, window, tol, resolution):
-    """ZenoTracker.record; returns ``(zeno, ratio, accumulation_time)``."""
+    """ZenoTracker.record; returns ``(zeno, ratio, accumulation_time)``.
+
+    Written with scalars (no array of dwell times or ratios is made): it runs at every
+    jump. The arithmetic is numpy's on those arrays, term by term: each dwell time is a
+    difference of event times, each ratio a quotient of dwell times, and the mean of the
+    last three ratios their sum from zero, divided by their count.
+    """
     w1 = window + 1
     c = zcount[key]
     if c >= w1:
@@ -138,23 +144,31 @@ def _zeno_record(ztimes, zcount, key, t, window, tol, resolution):
     zcount[key] = c + 1
     if c + 1 < w1:
         return False, 0.0, 0.0
-    dwell = np.empty(window)
     for i in range(window):
-        dwell[i] = ztimes[key, i + 1] - ztimes[key, i]
-        if dwell[i] <= 0:
+        if ztimes[key, i + 1] - ztimes[key, i] <= 0:
             return False, 0.0, 0.0
-    ratios = dwell[1:] / dwell[:-1]
-    if not (np.all(ratios < 1.0) and ratios.max() <= 1.5 * ratios.min()):
+    shrinking = True
+    low, high = np.inf, -np.inf
+    n_mean = min(3, window - 1)
+    total = 0.0
+    for i in range(window - 1):
+        ratio = (ztimes[key, i + 2] - ztimes[key, i + 1]) / (ztimes[key, i + 1] - ztimes[key, i])
+        shrinking = shrinking and ratio < 1.0
+        low, high = min(low, ratio), max(high, ratio)
+        if i >= window - 1 - n_mean:
+            total += ratio
+    if not (shrinking and high <= 1.5 * low):
         return False, 0.0, 0.0
-    r = np.mean(ratios[-3:])
-    remaining = dwell[-1] * r / (1.0 - r)
+    r = total / n_mean
+    last = ztimes[key, window] - ztimes[key, window - 1]
+    remaining = last * r / (1.0 - r)
     scale = max(1.0, abs(t))
-    if remaining <= tol * scale or dwell[-1] <= resolution * scale:
+    if remaining <= tol * scale or last <= resolution * scale:
         return True, r, t + remaining
     return False, 0.0, 0.0
 
 
-@counted
+@borrowing
 def _zeno_stop(ztimes, zcount, key, t, window, tol, resolution, info):
     """Record an event of Zeno key ``key``; True, with ``info`` (key, count, ratio,
     accumulation time) filled, when the events accumulate."""
@@ -461,7 +475,8 @@ def _run(model_address, box_address, tables, reals, opts_i, opts_f, t_end, p, n_
                             any_switch = True
                     if any_switch:
                         if update_switches(model, fc, affine[m], t, x, p, sig, slm, sw_hit,
-                                           ex_hit, kinds) != OK:
+                                           ex_hit, kinds, b.switch_reals, b.switch_flags,
+                                           b.switch_index) != OK:
                             code = HANDOFF
                             break
                         fc = _fc(tables, m, slm, W, sl_buffer)
@@ -591,7 +606,8 @@ def _run(model_address, box_address, tables, reals, opts_i, opts_f, t_end, p, n_
                 m = target
                 _fill(slm, False)
                 fc = _fc(tables, m, slm, W, sl_buffer)
-                if enter_mode(model, fc, affine[m], t, x, p, sig, slm, event_atol) != OK:
+                if enter_mode(model, fc, affine[m], t, x, p, sig, slm, event_atol,
+                              b.switch_reals, b.switch_flags, b.switch_index) != OK:
                     code = HANDOFF
                     stop = True
                     break
@@ -824,6 +840,7 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
                 c += 1
         m_max = max(m_max, c)
     sw = sample_workspace(m_max, 4 * (samples + 1))  # doubled when a step outgrows it
+    switch_reals, switch_flags, switch_index = switch_scratch(n, n_sig)
     b = RunBuffers(x, sig, slm, W, np.empty(ns), sl_buffer, gv, np.empty(gv.size),
                    np.empty((5, m_max), dtype=np.int64),  # kind, ref, start, length, hit rows
                    np.zeros((2, m_max), dtype=np.bool_),  # armed, has a floor
@@ -835,7 +852,7 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
                    np.zeros(ns, dtype=np.bool_), np.zeros(ns, dtype=np.int64),
                    # steps, refinements, events_located, segments, steps proven quiet
                    np.zeros(5, dtype=np.int64), np.zeros(4), x.copy(),
-                   np.zeros(2, dtype=np.int64))
+                   np.zeros(2, dtype=np.int64), switch_reals, switch_flags, switch_index)
     EV = np.empty((64, 7 + 2 * n))
     PT = np.empty((256, 1 + n))
     ST = np.empty((256, 2 + n + nc * n))
@@ -850,7 +867,8 @@ def run_kernel(model_address, box_address, tables, reals, opts_i, opts_f, t, x, 
     si[_S_ACTION], si[_S_MODE], si[_S_LAST_MODE], si[_S_CODE] = _ITERATE, m, m, COMPLETED
     sf[_F_T], sf[_F_H_LAST], sf[_F_LAST_T] = t, -1.0, t
     fc = _fc(tables, m, slm, W, sl_buffer)
-    if enter_mode(model, fc, tables.affine[m], t, x, p, sig, slm, event_atol) != OK:
+    if enter_mode(model, fc, tables.affine[m], t, x, p, sig, slm, event_atol, b.switch_reals,
+                  b.switch_flags, b.switch_index) != OK:
         cp.position[0] = R_START
         si[_S_CODE] = HANDOFF
     else:

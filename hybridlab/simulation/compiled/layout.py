@@ -143,7 +143,8 @@ class RunBuffers(NamedTuple):
     first values and slopes; the hit monitors' grazing flags; the integrator's stages,
     dense-output coefficients, new state and flow, current flow and scratch; the event
     iteration's flags per transition (fired, fresh, grazing) and per switch (hit, exit
-    hit, kind of event); the statistics, the stop details, the last state and the clock.
+    hit, kind of event); the statistics, the stop details, the last state and the clock;
+    the sign bookkeeping's scratch (reals, flags, indices: :func:`.sliding.switch_scratch`).
 
     Examples
     --------
@@ -182,6 +183,9 @@ class RunBuffers(NamedTuple):
     info: np.ndarray
     last_x: np.ndarray
     now: np.ndarray
+    switch_reals: np.ndarray
+    switch_flags: np.ndarray
+    switch_index: np.ndarray
 
 # ----- the kernel's own records (built inside the kernel, passed between its stages) ----------
 class FlowContext(NamedTuple):

@@ -43,11 +43,12 @@ from hybridlab.simulation.compiled.opcodes import (
     OP_SWITCH_GRAD,
     OP_SWITCH_LIE,
 )
-from hybridlab.simulation.compiled.signatures import borrowing, counted, ptr, ptr_at
+from hybridlab.simulation.compiled.signatures import borrowing, ptr, ptr_at
 from hybridlab.simulation.rules import EQUAL_SLOPES, EQUIVALENT_SIGN_SLACK
 
 __all__ = ["workspace", "flag_index", "equivalent", "equivalent_signs", "flow_sliding",
-           "flow_eq", "rhs", "enter_mode", "resolve", "update_switches", "active_indices", "OK",
+           "flow_eq", "rhs", "enter_mode", "resolve", "update_switches", "active_indices",
+           "switch_scratch", "OK",
            "NOT_AFFINE", "SINGULAR"]
 
 OK, NOT_AFFINE, SINGULAR = 0, 1, 2
@@ -271,6 +272,17 @@ def _leave(sig, previous, slm, k, d_plus, d_minus):
         sig[k] = 1.0 if previous[k] >= 0 else -1.0
 
 
+@numba.njit(cache=True, inline="always")
+def _active_into(slm, m, idx):
+    """The sliding set's indices into ``idx``; returns their count."""
+    c = 0
+    for k in range(m):
+        if slm[k]:
+            idx[c] = k
+            c += 1
+    return c
+
+
 @numba.njit(cache=True)
 def active_indices(slm, m):
     """Indices ``k < m`` of the switching surfaces with ``slm[k]`` set (the sliding set)."""
@@ -287,17 +299,48 @@ def active_indices(slm, m):
     return idx
 
 
+#: the slots of the sign bookkeeping's real scratch (:func:`switch_scratch`), each as long
+#: as the signs, after a state-sized one
+_S_LIE, _S_TMP, _S_EQ, _S_PREVIOUS, _S_DP, _S_DM, _S_OLD, _S_EQ_OLD, _S_FORCED = range(9)
+_N_REAL_SLOTS = 9
+#: the slots of its flag scratch
+_B_AT_SURFACE, _B_FORCED, _B_OLD_SLM = range(3)
+_N_FLAG_SLOTS = 3
+
+
 @numba.njit(cache=True)
-def resolve(model, fc, affine, t, x, p, sig, at_surface, forced, forced_value, slm):
-    """``resolve_switches``: new signs into ``sig``, the sliding set into ``slm``; a status."""
+def switch_scratch(n, n_sig):
+    """The scratch of :func:`enter_mode`, :func:`update_switches` and :func:`resolve` for
+    ``n`` states and ``n_sig`` switches: reals, flags and indices, allocated once per run
+    (they run at every event of a mode with switches)."""
+    ns = max(n_sig, 1)
+    return (np.zeros(n + _N_REAL_SLOTS * ns), np.zeros(_N_FLAG_SLOTS * ns, dtype=np.bool_),
+            np.zeros(ns, dtype=np.int64))
+
+
+@numba.njit(cache=True, inline="always")
+def _slot(a, n, ns, k):
+    """Slot ``k`` of a scratch array: ``ns`` entries after ``n`` leading ones."""
+    return a[n + k * ns:n + (k + 1) * ns]
+
+
+@borrowing
+def resolve(model, fc, affine, t, x, p, sig, at_surface, forced, forced_value, slm, reals,
+            index):
+    """``resolve_switches``: new signs into ``sig``, the sliding set into ``slm``; a status.
+
+    ``reals`` and ``index`` are its scratch (:func:`switch_scratch`); it allocates nothing.
+    """
     fg, sg, gg, dg, m, W = (fc.flow_group, fc.switch_group, fc.grad_group, fc.dsigma_group,
                              fc.n_switches, fc.workspace)
     n = x.size
-    f = np.empty(n)
-    lie = np.empty(sig.size)
-    tmp = np.empty(sig.size)
-    eq = np.empty(sig.size)
-    previous = sig.copy()
+    ns = sig.size
+    f = reals[:n]
+    lie, tmp, eq = _slot(reals, n, ns, _S_LIE), _slot(reals, n, ns, _S_TMP), _slot(reals, n, ns,
+                                                                                  _S_EQ)
+    previous = _slot(reals, n, ns, _S_PREVIOUS)
+    for k in range(ns):
+        previous[k] = sig[k]
     for k in range(m):
         slm[k] = False
         if forced[k]:
@@ -310,11 +353,10 @@ def resolve(model, fc, affine, t, x, p, sig, at_surface, forced, forced_value, s
             d_plus, d_minus = _sides(model, fc, t, x, p, sig, k, f, lie, tmp)
             if abs(d_plus - d_minus) <= EQUAL_SLOPES * (abs(d_plus) + abs(d_minus)):
                 _leave(sig, previous, slm, k, d_plus, d_minus)
-    count = active_indices(slm, m).size
-    dp = np.empty(m)
-    dm = np.empty(m)
+    count = _active_into(slm, m, index)
+    dp, dm = _slot(reals, n, ns, _S_DP), _slot(reals, n, ns, _S_DM)
     for _ in range(2 * count + 2):
-        idx = active_indices(slm, m)
+        idx = index[:_active_into(slm, m, index)]
         if idx.size == 0:
             break
         if not affine:
@@ -346,22 +388,28 @@ def resolve(model, fc, affine, t, x, p, sig, at_surface, forced, forced_value, s
     return OK
 
 
-@counted
-def enter_mode(model, fc, affine, t, x, p, sig, slm, event_atol):
-    """Fresh signs for a mode's switches at ``(t, x)`` (``fc`` without sliding)."""
+@borrowing
+def enter_mode(model, fc, affine, t, x, p, sig, slm, event_atol, reals, flags, index):
+    """Fresh signs for a mode's switches at ``(t, x)`` (``fc`` without sliding); its
+    scratch is ``reals``, ``flags`` and ``index`` (:func:`switch_scratch`)."""
     m = fc.n_switches
-    slm[:] = False
+    n = x.size
+    ns = sig.size
+    for k in range(slm.size):  # (element loops: a slice assignment needs numba's runtime)
+        slm[k] = False
     if m == 0:
         return OK
-    s = np.empty(sig.size)
-    at_surface = np.zeros(sig.size, dtype=np.bool_)
-    forced = np.zeros(sig.size, dtype=np.bool_)
-    sig[:] = 1.0
+    s = _slot(reals, n, ns, _S_OLD)
+    at_surface, forced = _slot(flags, 0, ns, _B_AT_SURFACE), _slot(flags, 0, ns, _B_FORCED)
+    for k in range(ns):
+        at_surface[k] = False
+        forced[k] = False
+        sig[k] = 1.0
     model(OP_SWITCH, fc.switch_group, t, ptr(x), ptr(p), ptr(sig), ptr(fc.workspace), ptr(s))
     for k in range(m):
         at_surface[k] = abs(s[k]) <= event_atol
         sig[k] = 1.0 if s[k] >= 0 else -1.0
-    return resolve(model, fc, affine, t, x, p, sig, at_surface, forced, sig, slm)
+    return resolve(model, fc, affine, t, x, p, sig, at_surface, forced, sig, slm, reals, index)
 
 
 @numba.njit(cache=True)
@@ -369,29 +417,40 @@ def _sign(v):
     return 0.0 if v == 0 else (1.0 if v > 0 else (-1.0 if v < 0 else v))
 
 
-@counted
-def update_switches(model, fc, affine, t, x, p, sig, slm, switches, exits, kinds):
+@borrowing
+def update_switches(model, fc, affine, t, x, p, sig, slm, switches, exits, kinds, reals, flags,
+                    index):
     """``_Run.update_switches`` without the logging: ``kinds[k]`` 1 crossing, 2 slide start,
-    3 slide end for every switch hit; ``fc`` carries the sliding set before the event."""
+    3 slide end for every switch hit; ``fc`` carries the sliding set before the event. Its
+    scratch is ``reals``, ``flags`` and ``index`` (:func:`switch_scratch`)."""
     m = fc.n_switches
     sl = fc.sliding
-    old = sig.copy()
+    n = x.size
+    ns = sig.size
+    old = _slot(reals, n, ns, _S_OLD)
+    for k in range(ns):
+        old[k] = sig[k]
     if sl.size:
-        eq = np.empty(sig.size)
+        eq = _slot(reals, n, ns, _S_EQ_OLD)
         if not equivalent(model, fc, t, x, p, sig, eq):
             return SINGULAR
         for a in range(sl.size):
             old[sl[a]] = eq[a]
-    old_slm = slm.copy()
-    forced = np.zeros(sig.size, dtype=np.bool_)
-    forced_value = np.zeros(sig.size)
-    at_surface = np.zeros(sig.size, dtype=np.bool_)
+    old_slm = _slot(flags, 0, ns, _B_OLD_SLM)
+    forced, at_surface = _slot(flags, 0, ns, _B_FORCED), _slot(flags, 0, ns, _B_AT_SURFACE)
+    forced_value = _slot(reals, n, ns, _S_FORCED)
+    for k in range(ns):
+        old_slm[k] = slm[k]
+        forced[k] = False
+        forced_value[k] = 0.0
+        at_surface[k] = False
     for k in range(m):
         if exits[k]:
             forced[k] = True
             forced_value[k] = _sign(old[k])
         at_surface[k] = switches[k] or (old_slm[k] and not exits[k])
-    status = resolve(model, fc, affine, t, x, p, sig, at_surface, forced, forced_value, slm)
+    status = resolve(model, fc, affine, t, x, p, sig, at_surface, forced, forced_value, slm,
+                     reals, index)
     if status != OK:
         return status
     for k in range(m):
