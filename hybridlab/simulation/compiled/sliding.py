@@ -47,7 +47,7 @@ from hybridlab.simulation.compiled.signatures import borrowing, ptr, ptr_at
 from hybridlab.simulation.rules import EQUAL_SLOPES, EQUIVALENT_SIGN_SLACK
 
 __all__ = ["workspace", "flag_index", "equivalent", "equivalent_signs", "flow_sliding",
-           "flow_eq", "rhs", "enter_mode", "resolve", "update_switches", "active_indices",
+           "flow_eq", "rhs", "enter_mode", "resolve", "update_switches",
            "switch_scratch", "OK",
            "NOT_AFFINE", "SINGULAR"]
 
@@ -281,22 +281,6 @@ def _active_into(slm, m, idx):
             idx[c] = k
             c += 1
     return c
-
-
-@numba.njit(cache=True)
-def active_indices(slm, m):
-    """Indices ``k < m`` of the switching surfaces with ``slm[k]`` set (the sliding set)."""
-    c = 0
-    for k in range(m):
-        if slm[k]:
-            c += 1
-    idx = np.empty(c, dtype=np.int64)
-    c = 0
-    for k in range(m):
-        if slm[k]:
-            idx[c] = k
-            c += 1
-    return idx
 
 
 #: the slots of the sign bookkeeping's real scratch (:func:`switch_scratch`), each as long
