@@ -483,5 +483,6 @@ def _settings(sc: Scenario | None, options: SimulationOptions | None,
         for name in _SCENARIO_SETTINGS:
             if settings.get(name) is None and getattr(sc, name) is not None:
                 settings[name] = getattr(sc, name)
-    base = options or SimulationOptions()
-    return dataclasses.replace(base, **settings) if settings else base
+    if options is None:  # one construction (each checks every field)
+        return SimulationOptions(**settings)
+    return dataclasses.replace(options, **settings) if settings else options
