@@ -30,8 +30,7 @@ from typing import NamedTuple
 import numpy as np
 
 __all__ = ["BoxWorkspace", "DenseStep", "FlowContext", "KernelCheckpoint", "KernelResult",
-           "RunBuffers",
-           "LocateWorkspace", "ModelTables", "Monitors", "Probe", "SampleWorkspace"]
+           "LocateWorkspace", "ModelTables", "Monitors", "Probe", "RunBuffers", "SampleWorkspace"]
 
 
 class ModelTables(NamedTuple):
@@ -133,7 +132,6 @@ class KernelResult(NamedTuple):
     checkpoint: KernelCheckpoint
 
 
-
 class RunBuffers(NamedTuple):
     """The run loop's buffers, allocated once per run by the kernel and borrowed by its loop.
 
@@ -186,6 +184,7 @@ class RunBuffers(NamedTuple):
     switch_reals: np.ndarray
     switch_flags: np.ndarray
     switch_index: np.ndarray
+
 
 # ----- the kernel's own records (built inside the kernel, passed between its stages) ----------
 class FlowContext(NamedTuple):

@@ -285,7 +285,7 @@ def _active_into(slm, m, idx):
 
 #: the slots of the sign bookkeeping's real scratch (:func:`switch_scratch`), each as long
 #: as the signs, after a state-sized one
-_S_LIE, _S_TMP, _S_EQ, _S_PREVIOUS, _S_DP, _S_DM, _S_OLD, _S_EQ_OLD, _S_FORCED = range(9)
+_R_LIE, _R_TMP, _R_EQ, _R_PREVIOUS, _R_DP, _R_DM, _R_OLD, _R_EQ_OLD, _R_FORCED = range(9)
 _N_REAL_SLOTS = 9
 #: the slots of its flag scratch
 _B_AT_SURFACE, _B_FORCED, _B_OLD_SLM = range(3)
@@ -320,9 +320,9 @@ def resolve(model, fc, affine, t, x, p, sig, at_surface, forced, forced_value, s
     n = x.size
     ns = sig.size
     f = reals[:n]
-    lie, tmp, eq = _slot(reals, n, ns, _S_LIE), _slot(reals, n, ns, _S_TMP), _slot(reals, n, ns,
-                                                                                  _S_EQ)
-    previous = _slot(reals, n, ns, _S_PREVIOUS)
+    lie, tmp, eq = _slot(reals, n, ns, _R_LIE), _slot(reals, n, ns, _R_TMP), _slot(reals, n, ns,
+                                                                                  _R_EQ)
+    previous = _slot(reals, n, ns, _R_PREVIOUS)
     for k in range(ns):
         previous[k] = sig[k]
     for k in range(m):
@@ -338,7 +338,7 @@ def resolve(model, fc, affine, t, x, p, sig, at_surface, forced, forced_value, s
             if abs(d_plus - d_minus) <= EQUAL_SLOPES * (abs(d_plus) + abs(d_minus)):
                 _leave(sig, previous, slm, k, d_plus, d_minus)
     count = _active_into(slm, m, index)
-    dp, dm = _slot(reals, n, ns, _S_DP), _slot(reals, n, ns, _S_DM)
+    dp, dm = _slot(reals, n, ns, _R_DP), _slot(reals, n, ns, _R_DM)
     for _ in range(2 * count + 2):
         idx = index[:_active_into(slm, m, index)]
         if idx.size == 0:
@@ -383,7 +383,7 @@ def enter_mode(model, fc, affine, t, x, p, sig, slm, event_atol, reals, flags, i
         slm[k] = False
     if m == 0:
         return OK
-    s = _slot(reals, n, ns, _S_OLD)
+    s = _slot(reals, n, ns, _R_OLD)
     at_surface, forced = _slot(flags, 0, ns, _B_AT_SURFACE), _slot(flags, 0, ns, _B_FORCED)
     for k in range(ns):
         at_surface[k] = False
@@ -411,18 +411,18 @@ def update_switches(model, fc, affine, t, x, p, sig, slm, switches, exits, kinds
     sl = fc.sliding
     n = x.size
     ns = sig.size
-    old = _slot(reals, n, ns, _S_OLD)
+    old = _slot(reals, n, ns, _R_OLD)
     for k in range(ns):
         old[k] = sig[k]
     if sl.size:
-        eq = _slot(reals, n, ns, _S_EQ_OLD)
+        eq = _slot(reals, n, ns, _R_EQ_OLD)
         if not equivalent(model, fc, t, x, p, sig, eq):
             return SINGULAR
         for a in range(sl.size):
             old[sl[a]] = eq[a]
     old_slm = _slot(flags, 0, ns, _B_OLD_SLM)
     forced, at_surface = _slot(flags, 0, ns, _B_FORCED), _slot(flags, 0, ns, _B_AT_SURFACE)
-    forced_value = _slot(reals, n, ns, _S_FORCED)
+    forced_value = _slot(reals, n, ns, _R_FORCED)
     for k in range(ns):
         old_slm[k] = slm[k]
         forced[k] = False
